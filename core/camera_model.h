@@ -1,0 +1,83 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <string_view>
+
+namespace occmap {
+
+// The length unit a calibration file is written in (ARCHITECTURE.md, Conventions: Tsai files are in
+// millimetres, an OpenCV file in the units of its tvec).
+enum class LengthUnit { kMillimetre, kCentimetre, kMetre };
+
+double metresPerUnit(LengthUnit unit);
+std::string_view unitName(LengthUnit unit);
+std::optional<LengthUnit> parseLengthUnit(std::string_view text);
+
+// Where a world point lands in the calibration image: `pixel` is (u = column, v = row) with integer
+// values at pixel centres; `depth` is the point's z in camera coordinates, in calibration units.
+struct ImagePoint {
+  Eigen::Vector2d pixel;
+  double depth;
+};
+
+// A point found on a plane from a pixel, with its depth (camera z) along the pixel's ray.
+struct PlanePoint {
+  Eigen::Vector3d world;
+  double depth;
+};
+
+// The world points that image at one pixel: origin + depth * direction, depth > 0. The direction's
+// camera-z component is 1, so the parameter along the ray is the point's depth.
+struct Ray {
+  Eigen::Vector3d origin;
+  Eigen::Vector3d direction;
+};
+
+// The extrinsic pose shared by every lens model: camera coordinates Xc = rotation * Xw + translation.
+struct Pose {
+  Eigen::Matrix3d rotation;
+  Eigen::Vector3d translation;
+
+  Eigen::Vector3d centre() const { return -rotation.transpose() * translation; }
+};
+
+// A calibrated camera in its calibration frame and its file's own units. World to image and image to
+// plane; every "no result" is an empty optional, never a number: a point behind the camera or beyond
+// the lens model's valid radius has no image, and a pixel beyond that radius has no ray.
+// A point that projects outside the image bounds still has a pixel: bounds are the caller's business.
+class CameraModel {
+ public:
+  CameraModel(const Pose& pose, int width, int height) : pose_(pose), width_(width), height_(height) {}
+  virtual ~CameraModel() = default;
+  CameraModel(const CameraModel&) = default;
+  CameraModel& operator=(const CameraModel&) = default;
+
+  // Calibration frame size in pixels.
+  int width() const { return width_; }
+  int height() const { return height_; }
+  const Pose& pose() const { return pose_; }
+
+  std::optional<ImagePoint> worldToImage(const Eigen::Vector3d& world) const;
+  std::optional<Ray> imageToRay(const Eigen::Vector2d& pixel) const;
+  // Closed form: the pixel's ray meets the horizontal plane at height z in front of the camera, or
+  // there is no result (a ray parallel to the plane or one that reaches it only behind the camera).
+  std::optional<PlanePoint> imageToPlane(const Eigen::Vector2d& pixel, double z) const;
+
+ protected:
+  // Lens model from camera coordinates (zc > 0 guaranteed) to a pixel; empty beyond the valid radius.
+  virtual std::optional<Eigen::Vector2d> cameraToPixel(const Eigen::Vector3d& camera) const = 0;
+  // Lens model from a pixel to the direction (x, y, 1) in camera coordinates; empty beyond the valid
+  // radius (where the model folds back and one pixel would stand for two rays).
+  virtual std::optional<Eigen::Vector3d> pixelToCamera(const Eigen::Vector2d& pixel) const = 0;
+
+ private:
+  Pose pose_;
+  int width_;
+  int height_;
+};
+
+// R = Rz(rz) * Ry(ry) * Rx(rx), Willson's convention for Tsai's model (and ETISEO's files).
+Eigen::Matrix3d rotationFromTsaiAngles(double rx, double ry, double rz);
+
+}  // namespace occmap

@@ -1,0 +1,96 @@
+#include "core/opencv_camera.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <limits>
+
+namespace occmap {
+namespace {
+
+// Smallest positive s = r^2 with 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3 = 0 (the derivative of the radial
+// polynomial r (1 + k1 r^2 + k2 r^4 + k3 r^6) in r), or infinity. A sign change is bracketed on a
+// geometric grid and then bisected to the last bit; a root where the derivative only touches zero
+// leaves the polynomial increasing, so skipping it is right.
+double smallestPositiveRootOfSlope(double k1, double k2, double k3) {
+  auto slope = [&](double s) { return 1.0 + s * (3.0 * k1 + s * (5.0 * k2 + s * 7.0 * k3)); };
+  double low = 0.0;
+  // The normalised radius of any real lens is far below 1e4 (an angle of 89.99 degrees).
+  for (double high = 1e-8; high <= 1e8; high *= 1.05) {
+    if (slope(high) <= 0.0) {
+      for (int i = 0; i < 200 && low < high; ++i) {
+        const double mid = 0.5 * (low + high);
+        if (mid <= low || mid >= high) break;
+        (slope(mid) > 0.0 ? low : high) = mid;
+      }
+      return low;
+    }
+    low = high;
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
+
+Eigen::Matrix3d rotationFromRodrigues(const Eigen::Vector3d& rvec) {
+  const double angle = rvec.norm();
+  if (angle == 0.0) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(angle, rvec / angle).toRotationMatrix();
+}
+
+OpenCvCamera::OpenCvCamera(const OpenCvParameters& parameters)
+    : CameraModel(Pose{rotationFromRodrigues(parameters.rvec), parameters.tvec}, parameters.width,
+                  parameters.height),
+      p_(parameters) {
+  const double s = smallestPositiveRootOfSlope(p_.distortion[0], p_.distortion[1], p_.distortion[4]);
+  max_radius_ = std::sqrt(s);
+}
+
+Eigen::Vector2d OpenCvCamera::distort(const Eigen::Vector2d& n) const {
+  const auto& [k1, k2, p1, p2, k3] = p_.distortion;
+  const double x = n.x();
+  const double y = n.y();
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  return {x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+          y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y};
+}
+
+std::optional<Eigen::Vector2d> OpenCvCamera::cameraToPixel(const Eigen::Vector3d& camera) const {
+  const Eigen::Vector2d normalised(camera.x() / camera.z(), camera.y() / camera.z());
+  if (!(normalised.norm() <= max_radius_)) return std::nullopt;
+  const Eigen::Vector2d d = distort(normalised);
+  return Eigen::Vector2d(p_.fx * d.x() + p_.cx, p_.fy * d.y() + p_.cy);
+}
+
+std::optional<Eigen::Vector3d> OpenCvCamera::pixelToCamera(const Eigen::Vector2d& pixel) const {
+  const Eigen::Vector2d target((pixel.x() - p_.cx) / p_.fx, (pixel.y() - p_.cy) / p_.fy);
+  // Newton's method on distort(n) = target from n = target. Inside the monotonic radius the map is
+  // one-to-one and this converges in a few steps; a pixel that no point inside it reaches has no ray.
+  Eigen::Vector2d n = target;
+  const auto& [k1, k2, p1, p2, k3] = p_.distortion;
+  for (int iteration = 0; iteration < 50; ++iteration) {
+    const Eigen::Vector2d residual = distort(n) - target;
+    if (residual.norm() <= 1e-15 * (1.0 + target.norm())) break;
+    const double x = n.x();
+    const double y = n.y();
+    const double r2 = x * x + y * y;
+    const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    const double dradial = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);  // d radial / d r2
+    Eigen::Matrix2d jacobian;
+    jacobian(0, 0) = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x;
+    jacobian(0, 1) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
+    jacobian(1, 0) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
+    jacobian(1, 1) = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x;
+    Eigen::Vector2d step = jacobian.partialPivLu().solve(residual);
+    if (!step.allFinite()) return std::nullopt;
+    n -= step;
+    // Keep the iterate on the model's valid part so it cannot converge to a folded-back root.
+    const double radius = n.norm();
+    if (radius > max_radius_) n *= max_radius_ / radius;
+  }
+  if (!(n.norm() <= max_radius_)) return std::nullopt;
+  if (!((distort(n) - target).norm() <= 1e-9 * (1.0 + target.norm()))) return std::nullopt;
+  return Eigen::Vector3d(n.x(), n.y(), 1.0);
+}
+
+}  // namespace occmap

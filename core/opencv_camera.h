@@ -1,0 +1,45 @@
+#pragma once
+
+#include <array>
+
+#include "core/camera_model.h"
+
+namespace occmap {
+
+// OpenCV's pinhole model as cv::calibrateCamera and cv::projectPoints define it, with the 5
+// coefficients k1 k2 p1 p2 k3 and the pose Xc = R(rvec) Xw + tvec.
+struct OpenCvParameters {
+  int width = 0;
+  int height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::array<double, 5> distortion{};  // k1 k2 p1 p2 k3
+  Eigen::Vector3d rvec = Eigen::Vector3d::Zero();
+  Eigen::Vector3d tvec = Eigen::Vector3d::Zero();
+};
+
+class OpenCvCamera final : public CameraModel {
+ public:
+  explicit OpenCvCamera(const OpenCvParameters& parameters);
+
+  const OpenCvParameters& parameters() const { return p_; }
+
+  // The normalised radius r = |(x, y)| / z where the radial polynomial r (1 + k1 r^2 + k2 r^4 + k3 r^6)
+  // stops increasing (infinite if it never does). Past it OpenCV folds points back into the picture;
+  // we give them no image, and no pixel maps past it.
+  double maxRadius() const { return max_radius_; }
+
+ protected:
+  std::optional<Eigen::Vector2d> cameraToPixel(const Eigen::Vector3d& camera) const override;
+  std::optional<Eigen::Vector3d> pixelToCamera(const Eigen::Vector2d& pixel) const override;
+
+ private:
+  Eigen::Vector2d distort(const Eigen::Vector2d& normalised) const;
+
+  OpenCvParameters p_;
+  double max_radius_;
+};
+
+// Rodrigues' formula: the rotation matrix of a rotation vector (axis times angle), as cv::Rodrigues.
+Eigen::Matrix3d rotationFromRodrigues(const Eigen::Vector3d& rvec);
+
+}  // namespace occmap
