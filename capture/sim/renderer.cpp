@@ -1,0 +1,228 @@
+#include "capture/sim/renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace occmap::sim {
+namespace {
+
+std::uint8_t toGrey(double shade) {
+  return static_cast<std::uint8_t>(std::clamp(std::lround(shade), 0L, 255L));
+}
+
+// splitmix64: a fast, well-mixed generator for the sensor noise.
+std::uint64_t splitmix(std::uint64_t& state) {
+  std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
+}  // namespace
+
+Renderer::Renderer(const Scene& scene, Camera camera, int camera_index)
+    : scene_(scene),
+      camera_(std::move(camera)),
+      camera_index_(camera_index),
+      centre_(camera_.centreMetres()),
+      background_(camera_.streamWidth(), camera_.streamHeight()),
+      floor_mask_(camera_.streamWidth(), camera_.streamHeight()) {
+  const int width = camera_.streamWidth();
+  const int height = camera_.streamHeight();
+  directions_.assign(static_cast<std::size_t>(width) * static_cast<std::size_t>(height),
+                     Eigen::Vector3f::Zero());
+  background_depth_.assign(directions_.size(), 0.0f);
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v * width + u);
+      const std::optional<Ray> ray = camera_.streamToRay(Eigen::Vector2d(u, v));
+      if (!ray) continue;  // past the lens model's valid radius: the pixel sees nothing (black)
+      const Eigen::Vector3d direction = ray->direction;
+      directions_[i] = direction.cast<float>();
+      const Scene::Hit hit = scene_.castStatic(centre_, direction);
+      if (!std::isfinite(hit.t)) continue;
+      background_depth_[i] = static_cast<float>(hit.t);
+      background_.at(u, v) = toGrey(scene_.staticShade(centre_ + hit.t * direction, hit.normal));
+      floor_mask_.at(u, v) = hit.floor ? 255 : 0;
+    }
+  }
+}
+
+Renderer::PixelBounds Renderer::projectedBounds(const Solid& solid) const {
+  const int width = camera_.streamWidth();
+  const int height = camera_.streamHeight();
+  const PixelBounds whole{0, 0, width - 1, height - 1};
+  // Sample the edges of the solid's bounding box: with lens distortion, straight edges bow, so the
+  // corners alone could miss a bulge.
+  const Eigen::Vector3d low(solid.centre.x() - solid.half_size.x(),
+                            solid.centre.y() - solid.half_size.y(), 0.0);
+  const Eigen::Vector3d size(2 * solid.half_size.x(), 2 * solid.half_size.y(), solid.height);
+  double u_min = std::numeric_limits<double>::infinity(), v_min = u_min;
+  double u_max = -u_min, v_max = -u_min;
+  constexpr int kSamples = 8;
+  for (int edge = 0; edge < 12; ++edge) {
+    const int axis = edge / 4;  // the axis this edge runs along
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    for (int k = 0; k <= kSamples; ++k) {
+      Eigen::Vector3d p = low;
+      p[axis] += size[axis] * k / kSamples;
+      p[a] += (edge & 1) ? size[a] : 0.0;
+      p[b] += (edge & 2) ? size[b] : 0.0;
+      const std::optional<Eigen::Vector2d> s = camera_.worldToStream(p);
+      if (!s) return whole;  // part of it behind the camera: look everywhere
+      u_min = std::min(u_min, s->x());
+      u_max = std::max(u_max, s->x());
+      v_min = std::min(v_min, s->y());
+      v_max = std::max(v_max, s->y());
+    }
+  }
+  constexpr double kMargin = 3.0;
+  return {std::max(0, static_cast<int>(std::floor(u_min - kMargin))),
+          std::max(0, static_cast<int>(std::floor(v_min - kMargin))),
+          std::min(width - 1, static_cast<int>(std::ceil(u_max + kMargin))),
+          std::min(height - 1, static_cast<int>(std::ceil(v_max + kMargin)))};
+}
+
+void Renderer::render(const std::vector<SceneObject>& objects, std::uint64_t frame_number,
+                      Image& out, Image* object_pixels) const {
+  const int width = camera_.streamWidth();
+  const int height = camera_.streamHeight();
+  if (out.width() != width || out.height() != height) out = Image(width, height);
+  std::copy(background_.data(), background_.data() + directions_.size(), out.data());
+  if (object_pixels) *object_pixels = Image(width, height, 0);
+  std::vector<float> depth;  // nearest object so far, only where objects are drawn
+  for (const SceneObject& object : objects) {
+    const PixelBounds bounds = projectedBounds(object.solid);
+    for (int v = bounds.v0; v <= bounds.v1; ++v) {
+      for (int u = bounds.u0; u <= bounds.u1; ++u) {
+        const std::size_t i = static_cast<std::size_t>(v * width + u);
+        if (background_depth_[i] <= 0.0f) continue;
+        const Eigen::Vector3d direction = directions_[i].cast<double>();
+        const std::optional<Solid::Hit> hit =
+            object.solid.intersect(centre_, direction, 1e-9, background_depth_[i]);
+        if (!hit) continue;
+        if (depth.empty()) depth.assign(directions_.size(), std::numeric_limits<float>::max());
+        if (static_cast<float>(hit->t) >= depth[i]) continue;
+        depth[i] = static_cast<float>(hit->t);
+        out.at(u, v) = toGrey(scene_.objectShade(object, centre_ + hit->t * direction));
+        if (object_pixels) object_pixels->at(u, v) = 1;
+      }
+    }
+  }
+  // Sensor noise: the sum of two uniform integers in [-3, 3], the same for the same frame and camera.
+  std::uint64_t state = frame_number * 0x100000001b3ull + static_cast<std::uint64_t>(camera_index_);
+  std::uint8_t* pixel = out.data();
+  const std::size_t count = directions_.size();
+  for (std::size_t i = 0; i < count;) {
+    std::uint64_t bits = splitmix(state);
+    for (int k = 0; k < 4 && i < count; ++k, ++i) {
+      const int a = static_cast<int>((bits & 0xff) * 7 >> 8) - 3;
+      const int b = static_cast<int>(((bits >> 8) & 0xff) * 7 >> 8) - 3;
+      bits >>= 16;
+      pixel[i] = static_cast<std::uint8_t>(std::clamp(int{pixel[i]} + a + b, 0, 255));
+    }
+  }
+}
+
+bool Renderer::clearViewOfStatic(const Eigen::Vector3d& point) const {
+  const std::optional<Eigen::Vector2d> stream = camera_.worldToStream(point);
+  if (!stream || !camera_.pixelIndexAt(*stream)) return false;
+  const Eigen::Vector3d direction = point - centre_;
+  const Scene::Hit hit = scene_.castStatic(centre_, direction);
+  // The segment reaches the point (t = 1) on the floor, with nothing static before it.
+  return hit.floor && std::abs(hit.t - 1.0) < 1e-9;
+}
+
+bool Renderer::clearView(const Eigen::Vector3d& point,
+                         const std::vector<SceneObject>& objects) const {
+  if (!clearViewOfStatic(point)) return false;
+  const Eigen::Vector3d direction = point - centre_;
+  for (const SceneObject& object : objects) {
+    if (object.solid.intersect(centre_, direction, 1e-9, 1.0 - 1e-9)) return false;
+  }
+  return true;
+}
+
+TruthMaker::TruthMaker(std::vector<const Renderer*> renderers, const MapGeometry& map)
+    : renderers_(std::move(renderers)), map_(map) {
+  for (const Renderer* renderer : renderers_) {
+    std::vector<std::uint8_t> clear(map_.cellCount(), 0);
+    std::vector<int> pixels(map_.cellCount(), -1);
+    for (int row = 0; row < map_.height; ++row) {
+      for (int column = 0; column < map_.width; ++column) {
+        const std::size_t cell = static_cast<std::size_t>(map_.index(row, column));
+        const Eigen::Vector2d c = map_.cellCentre(row, column);
+        const Eigen::Vector3d point(c.x(), c.y(), 0.0);
+        clear[cell] = renderer->clearViewOfStatic(point) ? 1 : 0;
+        const std::optional<Eigen::Vector2d> stream = renderer->camera().worldToStream(point);
+        if (stream) pixels[cell] = renderer->camera().pixelIndexAt(*stream).value_or(-1);
+      }
+    }
+    static_clear_.push_back(std::move(clear));
+    centre_pixel_.push_back(std::move(pixels));
+  }
+}
+
+int TruthMaker::centrePixel(std::size_t camera, std::size_t cell) const {
+  return centre_pixel_[camera][cell];
+}
+
+GroundTruth TruthMaker::at(const std::vector<SceneObject>& objects) const {
+  GroundTruth truth;
+  truth.footprint.assign(map_.cellCount(), GroundTruth::kClear);
+  truth.clear_view.assign(map_.cellCount(), 0);
+  truth.object_cells.resize(objects.size());
+  const double cell_size = map_.cell_size_m;
+  for (std::size_t k = 0; k < objects.size(); ++k) {
+    const Solid& solid = objects[k].solid;
+    // Only the cells under the solid's bounding square can be touched by its footprint.
+    const auto first_column = static_cast<int>(std::floor(
+        (solid.centre.x() - solid.half_size.x() - map_.origin_x_m) / cell_size));
+    const auto last_column = static_cast<int>(std::floor(
+        (solid.centre.x() + solid.half_size.x() - map_.origin_x_m) / cell_size));
+    const auto first_row = static_cast<int>(std::floor(
+        (solid.centre.y() - solid.half_size.y() - map_.origin_y_m) / cell_size));
+    const auto last_row = static_cast<int>(std::floor(
+        (solid.centre.y() + solid.half_size.y() - map_.origin_y_m) / cell_size));
+    for (int row = std::max(0, first_row); row <= std::min(map_.height - 1, last_row); ++row) {
+      for (int column = std::max(0, first_column); column <= std::min(map_.width - 1, last_column);
+           ++column) {
+        const Eigen::Vector2d low(map_.origin_x_m + column * cell_size,
+                                  map_.origin_y_m + row * cell_size);
+        const Eigen::Vector2d high = low + Eigen::Vector2d(cell_size, cell_size);
+        const int cell = map_.index(row, column);
+        std::uint8_t& footprint = truth.footprint[static_cast<std::size_t>(cell)];
+        if (solid.footprintCovers(low, high)) {
+          footprint = GroundTruth::kInside;
+          truth.object_cells[k].push_back(cell);
+        } else if (solid.footprintOverlaps(low, high) && footprint != GroundTruth::kInside) {
+          footprint = GroundTruth::kEdge;
+        }
+      }
+    }
+  }
+  for (std::size_t camera = 0; camera < renderers_.size(); ++camera) {
+    const Renderer& renderer = *renderers_[camera];
+    const Eigen::Vector3d centre = renderer.camera().centreMetres();
+    for (int row = 0; row < map_.height; ++row) {
+      for (int column = 0; column < map_.width; ++column) {
+        const std::size_t cell = static_cast<std::size_t>(map_.index(row, column));
+        if (!static_clear_[camera][cell]) continue;
+        const Eigen::Vector2d c = map_.cellCentre(row, column);
+        const Eigen::Vector3d direction = Eigen::Vector3d(c.x(), c.y(), 0.0) - centre;
+        bool clear = true;
+        for (const SceneObject& object : objects) {
+          if (object.solid.intersect(centre, direction, 1e-9, 1.0 - 1e-9)) {
+            clear = false;
+            break;
+          }
+        }
+        if (clear) truth.clear_view[cell] |= 1u << camera;
+      }
+    }
+  }
+  return truth;
+}
+
+}  // namespace occmap::sim

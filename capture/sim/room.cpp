@@ -1,0 +1,216 @@
+// The built-in scene "room": the paper's experiment (section 4). A room of about 9 x 6.5 m lined with
+// 2 m bookshelves, four 640x480 cameras on top of them, two with 3.5 mm and two with 6.0 mm lenses,
+// and what the paper shows moving in it: people walking, chairs being pushed, a small robot.
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "capture/sim/scene.h"
+
+namespace occmap::sim {
+namespace {
+
+constexpr double kRoomX = 9.0;
+constexpr double kRoomY = 6.5;
+constexpr double kWallHeight = 2.6;
+constexpr double kShelfDepth = 0.35;
+constexpr double kShelfHeight = 2.0;
+constexpr double kCameraHeight = kShelfHeight + 0.3;  // on a mount at the shelf's front edge
+constexpr double kDuration = 20.0;
+
+// A 32-bit integer hash (Wang's) for procedural textures: deterministic and cheap.
+std::uint32_t hash(std::uint32_t x) {
+  x = (x ^ 61u) ^ (x >> 16);
+  x *= 9u;
+  x ^= x >> 4;
+  x *= 0x27d4eb2du;
+  x ^= x >> 15;
+  return x;
+}
+
+double unitHash(long a, long b, std::uint32_t salt) {
+  const auto ua = static_cast<std::uint32_t>(a);
+  const auto ub = static_cast<std::uint32_t>(b);
+  return hash(ua * 73856093u ^ hash(ub * 19349663u ^ salt)) / 4294967295.0;
+}
+
+// A camera at `position` looking at `target` (metres), as Tsai parameters in millimetres. The sensor
+// is a 1/2" CCD like the paper's Sony XC-999: 640 x 480 pixels of 10 um.
+SceneCamera lookAt(std::string name, const Eigen::Vector3d& position, const Eigen::Vector3d& target,
+                   double focal_mm, double kappa1, double cx, double cy) {
+  const Eigen::Vector3d forward = (target - position).normalized();
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  Eigen::Matrix3d r;
+  r.row(0) = right;
+  r.row(1) = down;
+  r.row(2) = forward;
+  const Eigen::Vector3d t = -r * (position * 1000.0);
+  TsaiParameters p;
+  p.width = 640;
+  p.height = 480;
+  p.ncx = p.nfx = 640;
+  p.dx = p.dy = p.dpx = p.dpy = 0.01;
+  p.focal = focal_mm;
+  p.kappa1 = kappa1;
+  p.cx = cx;
+  p.cy = cy;
+  p.sx = 1.0;
+  // R = Rz(rz) Ry(ry) Rx(rx): r31 = -sin(ry), r32 = cos(ry) sin(rx), r21 = cos(ry) sin(rz).
+  p.ry = std::asin(-r(2, 0));
+  p.rx = std::atan2(r(2, 1), r(2, 2));
+  p.rz = std::atan2(r(1, 0), r(0, 0));
+  p.tx = t.x();
+  p.ty = t.y();
+  p.tz = t.z();
+  return {std::move(name), p};
+}
+
+Solid box(double x0, double y0, double x1, double y1, double height) {
+  Solid s;
+  s.shape = Solid::Shape::kBox;
+  s.centre = {(x0 + x1) / 2, (y0 + y1) / 2};
+  s.half_size = {(x1 - x0) / 2, (y1 - y0) / 2};
+  s.height = height;
+  return s;
+}
+
+Solid cylinder(const Eigen::Vector2d& centre, double radius, double height) {
+  Solid s;
+  s.shape = Solid::Shape::kCylinder;
+  s.centre = centre;
+  s.half_size = {radius, radius};
+  s.height = height;
+  return s;
+}
+
+// Back and forth between a and b at `speed`, starting at a.
+Eigen::Vector2d pingPong(const Eigen::Vector2d& a, const Eigen::Vector2d& b, double speed,
+                         double t) {
+  const double length = (b - a).norm();
+  const double period = 2.0 * length / speed;
+  double s = std::fmod(t, period) * speed;
+  if (s > length) s = 2.0 * length - s;
+  return a + (b - a) * (s / length);
+}
+
+class RoomScene final : public Scene {
+ public:
+  RoomScene() {
+    const double far_x = kRoomX - kShelfDepth;
+    const double far_y = kRoomY - kShelfDepth;
+    // Shelves line most of the walls; gaps are the door and a stretch of bare wall.
+    furniture_ = {
+        box(0.0, 0.0, 3.6, kShelfDepth, kShelfHeight),
+        box(5.0, 0.0, kRoomX, kShelfDepth, kShelfHeight),
+        box(0.0, far_y, 1.2, kRoomY, kShelfHeight),
+        box(2.2, far_y, kRoomX, kRoomY, kShelfHeight),
+        box(0.0, kShelfDepth, kShelfDepth, 2.6, kShelfHeight),
+        box(0.0, 4.1, kShelfDepth, far_y, kShelfHeight),
+        box(far_x, kShelfDepth, kRoomX, far_y, kShelfHeight),
+    };
+    // The two wide cameras in opposite corners look across the middle; the two narrow ones reach far.
+    const double in = kShelfDepth + 0.05;  // just in front of the corner shelves
+    cameras_ = {
+        lookAt("c0", {in, in, kCameraHeight}, {4.6, 3.3, 0.0}, 3.5, 8e-3, 318.4, 243.1),
+        lookAt("c1", {kRoomX - in, in, kCameraHeight}, {2.8, 4.2, 0.0}, 6.0, 2e-3, 321.7, 238.5),
+        lookAt("c2", {kRoomX - in, kRoomY - in, kCameraHeight}, {4.4, 3.1, 0.0}, 3.5, 8e-3, 322.0,
+               240.6),
+        lookAt("c3", {in, kRoomY - in, kCameraHeight}, {6.2, 2.4, 0.0}, 6.0, 2e-3, 319.2, 241.9),
+    };
+  }
+
+  std::string_view name() const override { return "room"; }
+  const std::vector<SceneCamera>& cameras() const override { return cameras_; }
+  double durationS() const override { return kDuration; }
+  Eigen::Vector2d roomSize() const override { return {kRoomX, kRoomY}; }
+  double wallHeight() const override { return kWallHeight; }
+  const std::vector<Solid>& furniture() const override { return furniture_; }
+
+  std::vector<SceneObject> objectsAt(double t) const override {
+    constexpr double kTwoPi = 2.0 * std::numbers::pi;
+    // People: about 0.5 m x 1.75 m, walking at 1 m/s or so.
+    const double a = kTwoPi * t / 16.0;
+    const Eigen::Vector2d walker(4.5 + 2.4 * std::cos(a), 3.3 + 1.2 * std::sin(a));
+    const Eigen::Vector2d strider = pingPong({5.6, 5.3}, {8.0, 2.3}, 0.8, t);
+    // Chairs pushed across the room, slower.
+    const Eigen::Vector2d chair1 = pingPong({1.6, 1.4}, {6.4, 1.4}, 0.45, t);
+    const Eigen::Vector2d chair2 = pingPong({7.0, 4.9}, {7.0, 1.3}, 0.3, t);
+    // A small robot circling in the corner by the door of the far wall.
+    const double b = kTwoPi * t / 12.0;
+    const Eigen::Vector2d robot(1.8 + 0.5 * std::cos(b), 5.1 + 0.5 * std::sin(b));
+    return {
+        {ObjectKind::kPerson, cylinder(walker, 0.25, 1.75)},
+        {ObjectKind::kPerson, cylinder(strider, 0.25, 1.70)},
+        {ObjectKind::kChair, box(chair1.x() - 0.25, chair1.y() - 0.25, chair1.x() + 0.25,
+                                 chair1.y() + 0.25, 0.9)},
+        {ObjectKind::kChair, box(chair2.x() - 0.25, chair2.y() - 0.25, chair2.x() + 0.25,
+                                 chair2.y() + 0.25, 0.9)},
+        {ObjectKind::kRobot, cylinder(robot, 0.22, 0.35)},
+    };
+  }
+
+  double staticShade(const Eigen::Vector3d& p, const Eigen::Vector3d& normal) const override {
+    if (normal.z() > 0.5 && p.z() < 1e-6) {
+      // Floor: oak planks 0.2 m wide, 1.2 m long in staggered rows, with grain and dark seams.
+      const double row = std::floor(p.y() / 0.2);
+      const double shifted = p.x() + 0.4 * std::fmod(row * 7.0, 3.0);
+      const double plank = std::floor(shifted / 1.2);
+      const double across = p.y() - row * 0.2;
+      const double along = shifted - plank * 1.2;
+      if (across < 0.008 || along < 0.008) return 102.0;
+      const double base = 112.0 + 26.0 * unitHash(static_cast<long>(row), static_cast<long>(plank), 1);
+      return base + 6.0 * std::sin(p.x() * 37.0 + 3.0 * std::sin(p.y() * 11.0));
+    }
+    if (normal.z() < -0.5) return 215.0;  // ceiling
+    if (normal.z() > 0.5) return 180.0;   // shelf tops
+    if (isShelfFace(p)) {
+      // Book spines: 4.5 cm wide, of every shade from 110 to 240, on boards every 0.4 m.
+      if (std::fmod(p.z(), 0.4) < 0.02) return 150.0;
+      const double along = std::abs(normal.x()) > 0.5 ? p.y() : p.x();
+      const double spine = std::floor(along / 0.045);
+      return 110.0 + 130.0 * unitHash(static_cast<long>(spine), static_cast<long>(p.z() / 0.4), 2);
+    }
+    // Painted walls, slightly mottled.
+    const double along = std::abs(normal.x()) > 0.5 ? p.y() : p.x();
+    return 200.0 + 15.0 * unitHash(static_cast<long>(along / 0.3), static_cast<long>(p.z() / 0.3), 3);
+  }
+
+  double objectShade(const SceneObject& object, const Eigen::Vector3d& p) const override {
+    switch (object.kind) {
+      case ObjectKind::kPerson:
+        if (p.z() < 0.85) return 34.0;                               // trousers
+        if (p.z() < 1.5) return std::fmod(p.z(), 0.16) < 0.08 ? 52.0 : 58.0;  // striped shirt
+        return 26.0;                                                 // hair
+      case ObjectKind::kChair:
+        return p.z() > 0.42 && p.z() < 0.48 ? 30.0 : 46.0;
+      case ObjectKind::kRobot:
+        return p.z() > 0.3 ? 40.0 : 18.0;
+    }
+    return 0.0;
+  }
+
+ private:
+  bool isShelfFace(const Eigen::Vector3d& p) const {
+    for (const Solid& s : furniture_) {
+      const Eigen::Vector2d d = (p.head<2>() - s.centre).cwiseAbs() - s.half_size;
+      if (d.x() <= 1e-6 && d.y() <= 1e-6 && p.z() <= s.height + 1e-6) return true;
+    }
+    return false;
+  }
+
+  std::vector<Solid> furniture_;
+  std::vector<SceneCamera> cameras_;
+};
+
+}  // namespace
+
+std::unique_ptr<Scene> makeScene(std::string_view name) {
+  if (name == "room") return std::make_unique<RoomScene>();
+  return nullptr;
+}
+
+std::vector<std::string> sceneNames() { return {"room"}; }
+
+}  // namespace occmap::sim

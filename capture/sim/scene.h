@@ -1,0 +1,98 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/tsai_camera.h"
+
+namespace occmap::sim {
+
+// Simulated scenes: a room (textured floor, walls, bookshelves) watched by Tsai-model cameras, with
+// objects that move on the floor. Everything is in metres except the cameras' Tsai parameters (mm).
+// Scenes are deterministic functions of time, so any frame can be rendered, and its truth known,
+// in any order.
+
+// A solid standing on the floor: a vertical cylinder or an axis-aligned box, z from 0 to `height`.
+struct Solid {
+  enum class Shape : std::uint8_t { kCylinder, kBox };
+  Shape shape = Shape::kCylinder;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  Eigen::Vector2d half_size = Eigen::Vector2d::Zero();  // box: half extents; cylinder: radius in x
+  double height = 0;
+
+  double radius() const { return half_size.x(); }
+  // Whether the floor point lies inside the footprint (the boundary counts as inside).
+  bool footprintContains(const Eigen::Vector2d& p) const;
+  // Whether the footprint overlaps / contains the axis-aligned square [min, max].
+  bool footprintOverlaps(const Eigen::Vector2d& min, const Eigen::Vector2d& max) const;
+  bool footprintCovers(const Eigen::Vector2d& min, const Eigen::Vector2d& max) const;
+  // Where origin + t direction first enters the solid for t in (t_min, t_max), with the outward normal.
+  struct Hit {
+    double t;
+    Eigen::Vector3d normal;
+  };
+  std::optional<Hit> intersect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                               double t_min, double t_max) const;
+};
+
+enum class ObjectKind : std::uint8_t { kPerson, kChair, kRobot };
+std::string_view objectKindName(ObjectKind kind);
+
+// A moving object at one moment.
+struct SceneObject {
+  ObjectKind kind;
+  Solid solid;
+};
+
+// How a solid looks: all objects are darker than every static surface by more than any threshold a
+// test uses plus the sensor noise, so each pixel where an object hides the background is "changed".
+inline constexpr int kBrightestObject = 60;
+inline constexpr int kDarkestBackground = 100;
+inline constexpr int kSensorNoiseAmplitude = 6;  // grey levels, each way
+
+// A camera of the scene: name, Tsai calibration (mm) and stream size.
+struct SceneCamera {
+  std::string name;
+  TsaiParameters calibration;
+};
+
+class Scene {
+ public:
+  virtual ~Scene() = default;
+
+  virtual std::string_view name() const = 0;
+  virtual const std::vector<SceneCamera>& cameras() const = 0;
+  // Scripted motion lasts this long; off-line sources end there, live ones loop.
+  virtual double durationS() const = 0;
+  virtual std::vector<SceneObject> objectsAt(double t) const = 0;
+
+  // Static geometry: the room's floor rectangle [0, size.x] x [0, size.y], its wall height, and the
+  // furniture that never moves (part of the background).
+  virtual Eigen::Vector2d roomSize() const = 0;
+  virtual double wallHeight() const = 0;
+  virtual const std::vector<Solid>& furniture() const = 0;
+
+  // Grey level of a static surface point; `normal` tells floor (z), walls and furniture sides apart.
+  virtual double staticShade(const Eigen::Vector3d& point, const Eigen::Vector3d& normal) const = 0;
+  virtual double objectShade(const SceneObject& object, const Eigen::Vector3d& point) const = 0;
+
+  // The nearest static surface along a ray (t > 1e-9), with its normal; rays from inside the room
+  // always hit something (walls and ceiling close it).
+  struct Hit {
+    double t;
+    Eigen::Vector3d normal;
+    bool floor;  // the visible floor, not furniture, walls or ceiling
+  };
+  Hit castStatic(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
+};
+
+// Built-in scenes by name ("room": the paper's set-up). Empty for an unknown name.
+std::unique_ptr<Scene> makeScene(std::string_view name);
+std::vector<std::string> sceneNames();
+
+}  // namespace occmap::sim
