@@ -72,4 +72,20 @@ Eigen::Matrix3d rotationFromTsaiAngles(double rx, double ry, double rz) {
       .toRotationMatrix();
 }
 
+Eigen::Vector3d tsaiAnglesFromRotation(const Eigen::Matrix3d& r) {
+  // r31 = -sin(ry), r32 = cos(ry) sin(rx), r33 = cos(ry) cos(rx), r21 = cos(ry) sin(rz), r11 = ...
+  return {std::atan2(r(2, 1), r(2, 2)), std::asin(-r(2, 0)), std::atan2(r(1, 0), r(0, 0))};
+}
+
+Pose poseLookingAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d forward = (target - position).normalized();
+  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  Eigen::Matrix3d rotation;
+  rotation.row(0) = right;
+  rotation.row(1) = down;
+  rotation.row(2) = forward;
+  return Pose{rotation, -rotation * position};
+}
+
 }  // namespace occmap

@@ -79,5 +79,11 @@ class CameraModel {
 
 // R = Rz(rz) * Ry(ry) * Rx(rx), Willson's convention for Tsai's model (and ETISEO's files).
 Eigen::Matrix3d rotationFromTsaiAngles(double rx, double ry, double rz);
+// The angles (rx, ry, rz) of a rotation in that convention (|ry| < pi/2 taken).
+Eigen::Vector3d tsaiAnglesFromRotation(const Eigen::Matrix3d& rotation);
+
+// The pose of a camera at `position` looking at `target` with the image's rows horizontal (image +x
+// to the right, +y down, world z up), for simulated scenes and tests.
+Pose poseLookingAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target);
 
 }  // namespace occmap

@@ -29,7 +29,9 @@ enum class CarveRule : std::uint8_t {
 // left without a pixel (the paper's holes). Column mode (column_height_m > 0) gives every such cell the
 // pixels crossed by the image of its vertical column (see buildCarveTable).
 //
-// A cell "is seen" by the camera exactly when its centre projects into an in-bounds floor pixel.
+// A camera sees a cell when some floor pixel decides it: always when the cell's centre projects into
+// an in-bounds floor pixel (no holes), and in floor mode also when a floor pixel's centre ray meets
+// the floor inside the cell (at the image's and the mask's borders).
 class CarveTable {
  public:
   CarveTable() = default;

@@ -1,7 +1,6 @@
 // The built-in scene "room": the paper's experiment (section 4). A room of about 9 x 6.5 m lined with
 // 2 m bookshelves, four 640x480 cameras on top of them, two with 3.5 mm and two with 6.0 mm lenses,
 // and what the paper shows moving in it: people walking, chairs being pushed, a small robot.
-#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -39,14 +38,9 @@ double unitHash(long a, long b, std::uint32_t salt) {
 // is a 1/2" CCD like the paper's Sony XC-999: 640 x 480 pixels of 10 um.
 SceneCamera lookAt(std::string name, const Eigen::Vector3d& position, const Eigen::Vector3d& target,
                    double focal_mm, double kappa1, double cx, double cy) {
-  const Eigen::Vector3d forward = (target - position).normalized();
-  const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();
-  const Eigen::Vector3d down = forward.cross(right);
-  Eigen::Matrix3d r;
-  r.row(0) = right;
-  r.row(1) = down;
-  r.row(2) = forward;
-  const Eigen::Vector3d t = -r * (position * 1000.0);
+  const Pose pose = poseLookingAt(position * 1000.0, target * 1000.0);
+  const Eigen::Vector3d angles = tsaiAnglesFromRotation(pose.rotation);
+  const Eigen::Vector3d& t = pose.translation;
   TsaiParameters p;
   p.width = 640;
   p.height = 480;
@@ -57,10 +51,9 @@ SceneCamera lookAt(std::string name, const Eigen::Vector3d& position, const Eige
   p.cx = cx;
   p.cy = cy;
   p.sx = 1.0;
-  // R = Rz(rz) Ry(ry) Rx(rx): r31 = -sin(ry), r32 = cos(ry) sin(rx), r21 = cos(ry) sin(rz).
-  p.ry = std::asin(-r(2, 0));
-  p.rx = std::atan2(r(2, 1), r(2, 2));
-  p.rz = std::atan2(r(1, 0), r(0, 0));
+  p.rx = angles.x();
+  p.ry = angles.y();
+  p.rz = angles.z();
   p.tx = t.x();
   p.ty = t.y();
   p.tz = t.z();

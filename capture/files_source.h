@@ -1,0 +1,33 @@
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "capture/frame_source.h"
+
+namespace occmap {
+
+// files://<glob>: a camera's images from disk, in natural (numeric-aware) order of their paths.
+class FilesSource final : public FrameSource {
+ public:
+  // Empty with `error` set when the glob matches nothing or the first image cannot be read.
+  static std::unique_ptr<FilesSource> open(const std::string& pattern, std::string& error);
+
+  int width() const override { return width_; }
+  int height() const override { return height_; }
+  std::uint64_t frameCount() const override { return files_.size(); }
+  Status read(Frame& frame) override;
+  const std::vector<std::filesystem::path>& files() const { return files_; }
+
+ private:
+  explicit FilesSource(std::vector<std::filesystem::path> files) : files_(std::move(files)) {}
+
+  std::vector<std::filesystem::path> files_;
+  std::size_t next_ = 0;
+  int width_ = 0;
+  int height_ = 0;
+  Image current_;
+};
+
+}  // namespace occmap

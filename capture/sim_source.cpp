@@ -1,0 +1,27 @@
+#include "capture/sim_source.h"
+
+#include <chrono>
+#include <cmath>
+
+namespace occmap {
+
+SimSource::SimSource(std::shared_ptr<const sim::Scene> scene, Camera camera, int camera_index,
+                     double fps)
+    : scene_(std::move(scene)),
+      renderer_(*scene_, std::move(camera), camera_index),
+      fps_(fps),
+      frame_count_(static_cast<std::uint64_t>(std::floor(scene_->durationS() * fps))) {}
+
+FrameSource::Status SimSource::read(Frame& frame) {
+  if (next_ >= frame_count_) return Status::kEnd;
+  last_time_ = static_cast<double>(next_) / fps_;
+  renderer_.render(scene_->objectsAt(last_time_), next_, current_);
+  frame.image = current_.view();
+  frame.sequence = next_++;
+  frame.capture_time_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                              std::chrono::system_clock::now().time_since_epoch())
+                              .count();
+  return Status::kFrame;
+}
+
+}  // namespace occmap

@@ -1,0 +1,38 @@
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "capture/frame_source.h"
+#include "capture/sim/renderer.h"
+
+namespace occmap {
+
+// sim://<scene>/<camera>: what a simulated camera sees. Frame n shows the scene at t = n / fps; an
+// off-line source ends with the scene's scripted motion.
+class SimSource final : public FrameSource {
+ public:
+  SimSource(std::shared_ptr<const sim::Scene> scene, Camera camera, int camera_index, double fps);
+
+  int width() const override { return renderer_.camera().streamWidth(); }
+  int height() const override { return renderer_.camera().streamHeight(); }
+  std::uint64_t frameCount() const override { return frame_count_; }
+  Status read(Frame& frame) override;
+
+  const sim::Renderer& renderer() const { return renderer_; }
+  const sim::Scene& scene() const { return *scene_; }
+  double fps() const { return fps_; }
+  // The scene time of the frame read last.
+  double lastTime() const { return last_time_; }
+
+ private:
+  std::shared_ptr<const sim::Scene> scene_;
+  sim::Renderer renderer_;
+  double fps_;
+  std::uint64_t frame_count_;
+  std::uint64_t next_ = 0;
+  double last_time_ = 0;
+  Image current_;
+};
+
+}  // namespace occmap
