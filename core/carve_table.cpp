@@ -134,10 +134,14 @@ CarveTable buildFloorTable(const Camera& camera, const MapGeometry& map, ImageVi
 CarveTable buildColumnTable(const Camera& camera, const MapGeometry& map, double column_height_m,
                             ImageView mask) {
   const int steps = static_cast<int>(std::ceil(column_height_m / kColumnStepM - 1e-9));
-  std::vector<std::uint64_t> edges;
+  // Cells come in order, so the table is written row by row without a global sort.
+  std::vector<std::uint32_t> offsets(map.cellCount() + 1, 0);
+  std::vector<std::uint32_t> pixels;
   std::vector<std::uint32_t> column_pixels;
   for (int row = 0; row < map.height; ++row) {
     for (int column = 0; column < map.width; ++column) {
+      const auto cell = static_cast<std::size_t>(map.index(row, column));
+      offsets[cell + 1] = offsets[cell];
       if (!centrePixel(camera, map, row, column, mask)) continue;
       const Eigen::Vector2d centre = map.cellCentre(row, column);
       column_pixels.clear();
@@ -154,13 +158,14 @@ CarveTable buildColumnTable(const Camera& camera, const MapGeometry& map, double
                               column_pixels);
         previous = next;
       }
-      const int cell = map.index(row, column);
-      for (const std::uint32_t pixel : column_pixels) {
-        edges.push_back(edge(cell, static_cast<int>(pixel)));
-      }
+      std::sort(column_pixels.begin(), column_pixels.end());
+      const auto last = std::unique(column_pixels.begin(), column_pixels.end());
+      pixels.insert(pixels.end(), column_pixels.begin(), last);
+      offsets[cell + 1] = static_cast<std::uint32_t>(pixels.size());
     }
   }
-  return fromEdges(CarveRule::kEveryPixel, camera, map, edges);
+  return CarveTable(CarveRule::kEveryPixel, map, camera.streamWidth(), camera.streamHeight(),
+                    std::move(offsets), std::move(pixels));
 }
 
 }  // namespace
