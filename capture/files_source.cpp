@@ -1,9 +1,9 @@
 #include "capture/files_source.h"
 
-#include <glob.h>
-
 #include <algorithm>
 #include <chrono>
+
+#include <glob.h>
 
 #include "capture/image_file.h"
 #include "capture/source_spec.h"
@@ -26,9 +26,8 @@ std::unique_ptr<FilesSource> FilesSource::open(const std::string& pattern, std::
     error = "cannot list files for " + pattern + " (a folder on the way is unreadable?)";
     return nullptr;
   }
-  std::sort(files.begin(), files.end(), [](const auto& a, const auto& b) {
-    return naturalLess(a.string(), b.string());
-  });
+  std::sort(files.begin(), files.end(),
+            [](const auto& a, const auto& b) { return naturalLess(a.string(), b.string()); });
   std::unique_ptr<FilesSource> source(new FilesSource(std::move(files)));
   std::optional<Image> first = readGreyImage(source->files_.front(), error);
   if (!first) return nullptr;

@@ -14,8 +14,8 @@ struct Frame {
   std::int64_t capture_time_us = 0;  // host time of capture, microseconds since the Unix epoch
 };
 
-// Where a camera's frames come from. Off-line sources (files, the simulator) deliver their frames in
-// order and then end; read() blocks no longer than it takes to produce the next frame.
+// Where a camera's frames come from. Off-line sources (files, the simulator) deliver their frames
+// in order and then end; read() blocks no longer than it takes to produce the next frame.
 class FrameSource {
  public:
   enum class Status { kFrame, kEnd, kError };

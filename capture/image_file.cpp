@@ -4,9 +4,10 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <vector>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <vector>
 
 namespace occmap {
 
@@ -59,7 +60,8 @@ std::optional<Image> readGreyImage(const std::filesystem::path& file, std::strin
 }
 
 bool writeGreyPng(const std::filesystem::path& file, const Image& image, std::string& error) {
-  const cv::Mat mat(image.height(), image.width(), CV_8UC1, const_cast<std::uint8_t*>(image.data()));
+  const cv::Mat mat(image.height(), image.width(), CV_8UC1,
+                    const_cast<std::uint8_t*>(image.data()));
   bool written = false;
   try {
     written = cv::imwrite(file.string(), mat);

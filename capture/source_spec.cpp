@@ -29,7 +29,8 @@ std::optional<SourceSpec> parseSource(std::string_view text, const std::filesyst
     spec.kind = SourceSpec::Kind::kSim;
     const std::size_t slash = rest.find('/');
     if (slash == std::string_view::npos || slash == 0 || slash + 1 == rest.size()) {
-      error = "sim source '" + std::string(text) + "' must read sim://<scene>/<camera>, e.g. sim://room/c0";
+      error = "sim source '" + std::string(text) +
+              "' must read sim://<scene>/<camera>, e.g. sim://room/c0";
       return std::nullopt;
     }
     spec.scene = std::string(rest.substr(0, slash));
@@ -41,7 +42,8 @@ std::optional<SourceSpec> parseSource(std::string_view text, const std::filesyst
     spec.kind = SourceSpec::Kind::kV4l2;
     spec.device = std::string(rest);
     if (spec.device.empty() || spec.device.front() != '/') {
-      error = "v4l2 source '" + std::string(text) + "' must name a device path, e.g. v4l2:///dev/video0";
+      error = "v4l2 source '" + std::string(text) +
+              "' must name a device path, e.g. v4l2:///dev/video0";
       return std::nullopt;
     }
   } else {

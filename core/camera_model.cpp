@@ -1,7 +1,8 @@
 #include "core/camera_model.h"
 
-#include <Eigen/Geometry>
 #include <cmath>
+
+#include <Eigen/Geometry>
 
 namespace occmap {
 

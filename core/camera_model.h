@@ -1,8 +1,9 @@
 #pragma once
 
-#include <Eigen/Core>
 #include <optional>
 #include <string_view>
+
+#include <Eigen/Core>
 
 namespace occmap {
 
@@ -34,7 +35,8 @@ struct Ray {
   Eigen::Vector3d direction;
 };
 
-// The extrinsic pose shared by every lens model: camera coordinates Xc = rotation * Xw + translation.
+// The extrinsic pose shared by every lens model: camera coordinates Xc = rotation * Xw +
+// translation.
 struct Pose {
   Eigen::Matrix3d rotation;
   Eigen::Vector3d translation;
@@ -42,13 +44,14 @@ struct Pose {
   Eigen::Vector3d centre() const { return -rotation.transpose() * translation; }
 };
 
-// A calibrated camera in its calibration frame and its file's own units. World to image and image to
-// plane; every "no result" is an empty optional, never a number: a point behind the camera or beyond
-// the lens model's valid radius has no image, and a pixel beyond that radius has no ray.
-// A point that projects outside the image bounds still has a pixel: bounds are the caller's business.
+// A calibrated camera in its calibration frame and its file's own units. World to image and image
+// to plane; every "no result" is an empty optional, never a number: a point behind the camera or
+// beyond the lens model's valid radius has no image, and a pixel beyond that radius has no ray. A
+// point that projects outside the image bounds still has a pixel: bounds are the caller's business.
 class CameraModel {
  public:
-  CameraModel(const Pose& pose, int width, int height) : pose_(pose), width_(width), height_(height) {}
+  CameraModel(const Pose& pose, int width, int height)
+      : pose_(pose), width_(width), height_(height) {}
   virtual ~CameraModel() = default;
   CameraModel(const CameraModel&) = default;
   CameraModel& operator=(const CameraModel&) = default;
@@ -65,10 +68,11 @@ class CameraModel {
   std::optional<PlanePoint> imageToPlane(const Eigen::Vector2d& pixel, double z) const;
 
  protected:
-  // Lens model from camera coordinates (zc > 0 guaranteed) to a pixel; empty beyond the valid radius.
+  // Lens model from camera coordinates (zc > 0 guaranteed) to a pixel; empty beyond the valid
+  // radius.
   virtual std::optional<Eigen::Vector2d> cameraToPixel(const Eigen::Vector3d& camera) const = 0;
-  // Lens model from a pixel to the direction (x, y, 1) in camera coordinates; empty beyond the valid
-  // radius (where the model folds back and one pixel would stand for two rays).
+  // Lens model from a pixel to the direction (x, y, 1) in camera coordinates; empty beyond the
+  // valid radius (where the model folds back and one pixel would stand for two rays).
   virtual std::optional<Eigen::Vector3d> pixelToCamera(const Eigen::Vector2d& pixel) const = 0;
 
  private:

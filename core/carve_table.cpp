@@ -37,10 +37,10 @@ void forEachPixelOnSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b, i
   const long step_x = dx > 0 ? 1 : (dx < 0 ? -1 : 0);
   const long step_y = dy > 0 ? 1 : (dy < 0 ? -1 : 0);
   constexpr double kInfinity = std::numeric_limits<double>::infinity();
-  double next_x = step_x > 0 ? (static_cast<double>(x) + 1 - ax) / dx
+  double next_x = step_x > 0   ? (static_cast<double>(x) + 1 - ax) / dx
                   : step_x < 0 ? (static_cast<double>(x) - ax) / dx
                                : kInfinity;
-  double next_y = step_y > 0 ? (static_cast<double>(y) + 1 - ay) / dy
+  double next_y = step_y > 0   ? (static_cast<double>(y) + 1 - ay) / dy
                   : step_y < 0 ? (static_cast<double>(y) - ay) / dy
                                : kInfinity;
   const double delta_x = step_x != 0 ? 1.0 / std::abs(dx) : kInfinity;
@@ -53,7 +53,8 @@ void forEachPixelOnSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b, i
     }
   };
   visit();
-  // Exactly one step per pixel boundary crossed; the counts keep rounding from overshooting the end.
+  // Exactly one step per pixel boundary crossed; the counts keep rounding from overshooting the
+  // end.
   while (steps_x > 0 || steps_y > 0) {
     if (steps_y == 0 || (steps_x > 0 && next_x < next_y)) {
       x += step_x;
@@ -74,7 +75,8 @@ bool isFloorPixel(ImageView mask, int index, int width) {
   return mask.empty() || mask.at(index % width, index / width) != 0;
 }
 
-// The stream pixel containing the projection of the cell's centre, if the camera sees the cell there.
+// The stream pixel containing the projection of the cell's centre, if the camera sees the cell
+// there.
 std::optional<int> centrePixel(const Camera& camera, const MapGeometry& map, int row, int column,
                                ImageView mask) {
   const Eigen::Vector2d centre = map.cellCentre(row, column);
@@ -114,8 +116,7 @@ CarveTable buildFloorTable(const Camera& camera, const MapGeometry& map, ImageVi
   for (int v = 0; v < camera.streamHeight(); ++v) {
     for (int u = 0; u < width; ++u) {
       if (!mask.empty() && mask.at(u, v) == 0) continue;
-      const std::optional<Eigen::Vector3d> floor =
-          camera.streamToPlane(Eigen::Vector2d(u, v), 0.0);
+      const std::optional<Eigen::Vector3d> floor = camera.streamToPlane(Eigen::Vector2d(u, v), 0.0);
       if (!floor) continue;
       const std::optional<int> cell = map.cellAt(floor->x(), floor->y());
       if (cell) edges.push_back(edge(*cell, v * width + u));
@@ -172,8 +173,8 @@ CarveTable buildColumnTable(const Camera& camera, const MapGeometry& map, double
 
 CarveTable buildCarveTable(const Camera& camera, const MapGeometry& map, double column_height_m,
                            ImageView floor_mask) {
-  if (!floor_mask.empty() && (floor_mask.width != camera.streamWidth() ||
-                              floor_mask.height != camera.streamHeight())) {
+  if (!floor_mask.empty() &&
+      (floor_mask.width != camera.streamWidth() || floor_mask.height != camera.streamHeight())) {
     throw std::invalid_argument("floor mask size differs from the stream's");
   }
   if (!(column_height_m >= 0.0)) throw std::invalid_argument("column height must be >= 0");

@@ -12,26 +12,28 @@ namespace occmap {
 
 // How a camera's pixels decide one of its cells.
 enum class CarveRule : std::uint8_t {
-  // column_height_m = 0, the paper's floor-point carving: the cell is cleared when any of its pixels
+  // column_height_m = 0, the paper's floor-point carving: the cell is cleared when any of its
+  // pixels
   // is unchanged (a clear ray reaches the floor inside the cell).
   kAnyPixel,
-  // column_height_m > 0, column carving: the cell is cleared only when every pixel on the image of its
+  // column_height_m > 0, column carving: the cell is cleared only when every pixel on the image of
+  // its
   // vertical column, from the floor up to column_height_m, is unchanged.
   kEveryPixel,
 };
 
-// One camera's look-up table from map cells to the stream pixels that decide them, computed once from
-// calibration + map geometry (+ floor mask), never in the frame loop.
+// One camera's look-up table from map cells to the stream pixels that decide them, computed once
+// from calibration + map geometry (+ floor mask), never in the frame loop.
 //
-// Floor mode (column_height_m = 0) holds the paper's table, each floor pixel's centre to the cell its
-// ray meets on the floor, and more: every cell whose centre projects into a floor pixel also gets that
-// pixel, so far from the camera, where cells fall between pixel centres, no cell the camera sees is
-// left without a pixel (the paper's holes). Column mode (column_height_m > 0) gives every such cell the
-// pixels crossed by the image of its vertical column (see buildCarveTable).
+// Floor mode (column_height_m = 0) holds the paper's table, each floor pixel's centre to the cell
+// its ray meets on the floor, and more: every cell whose centre projects into a floor pixel also
+// gets that pixel, so far from the camera, where cells fall between pixel centres, no cell the
+// camera sees is left without a pixel (the paper's holes). Column mode (column_height_m > 0) gives
+// every such cell the pixels crossed by the image of its vertical column (see buildCarveTable).
 //
-// A camera sees a cell when some floor pixel decides it: always when the cell's centre projects into
-// an in-bounds floor pixel (no holes), and in floor mode also when a floor pixel's centre ray meets
-// the floor inside the cell (at the image's and the mask's borders).
+// A camera sees a cell when some floor pixel decides it: always when the cell's centre projects
+// into an in-bounds floor pixel (no holes), and in floor mode also when a floor pixel's centre ray
+// meets the floor inside the cell (at the image's and the mask's borders).
 class CarveTable {
  public:
   CarveTable() = default;
@@ -66,13 +68,14 @@ class CarveTable {
 // monotone in column_height_m, and heights are honoured rounded up to the step.
 inline constexpr double kColumnStepM = 0.01;
 
-// `floor_mask`, if not empty, has the stream's size; non-zero marks floor pixels, the only ones that may
-// clear a cell. Throws std::invalid_argument on a mask of another size or a negative height.
+// `floor_mask`, if not empty, has the stream's size; non-zero marks floor pixels, the only ones
+// that may clear a cell. Throws std::invalid_argument on a mask of another size or a negative
+// height.
 CarveTable buildCarveTable(const Camera& camera, const MapGeometry& map, double column_height_m,
                            ImageView floor_mask = {});
 
-// Every stream pixel whose square the straight segment from a to b (stream pixel coordinates) passes
-// through, in order; pixels out of bounds are skipped. Exposed for tests.
+// Every stream pixel whose square the straight segment from a to b (stream pixel coordinates)
+// passes through, in order; pixels out of bounds are skipped. Exposed for tests.
 void forEachPixelOnSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b, int width,
                            int height, std::vector<std::uint32_t>& out);
 

@@ -1,16 +1,17 @@
 #pragma once
 
-#include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <vector>
 
+#include <Eigen/Core>
+
 namespace occmap {
 
-// The floor raster (ARCHITECTURE.md, Conventions): `origin` is the outer corner of cell (0, 0); cell
-// (row r, column c) has its centre at x = origin_x + (c + 0.5) cell, y = origin_y + (r + 0.5) cell.
-// Row-major, row 0 = smallest y. All lengths in metres.
+// The floor raster (ARCHITECTURE.md, Conventions): `origin` is the outer corner of cell (0, 0);
+// cell (row r, column c) has its centre at x = origin_x + (c + 0.5) cell, y = origin_y + (r + 0.5)
+// cell. Row-major, row 0 = smallest y. All lengths in metres.
 struct MapGeometry {
   double origin_x_m = -0.5;
   double origin_y_m = -1.5;

@@ -1,8 +1,9 @@
 #include "core/opencv_camera.h"
 
-#include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
+
+#include <Eigen/Geometry>
 
 namespace occmap {
 namespace {
@@ -41,7 +42,8 @@ OpenCvCamera::OpenCvCamera(const OpenCvParameters& parameters)
     : CameraModel(Pose{rotationFromRodrigues(parameters.rvec), parameters.tvec}, parameters.width,
                   parameters.height),
       p_(parameters) {
-  const double s = smallestPositiveRootOfSlope(p_.distortion[0], p_.distortion[1], p_.distortion[4]);
+  const double s =
+      smallestPositiveRootOfSlope(p_.distortion[0], p_.distortion[1], p_.distortion[4]);
   max_radius_ = std::sqrt(s);
 }
 
@@ -65,7 +67,8 @@ std::optional<Eigen::Vector2d> OpenCvCamera::cameraToPixel(const Eigen::Vector3d
 std::optional<Eigen::Vector3d> OpenCvCamera::pixelToCamera(const Eigen::Vector2d& pixel) const {
   const Eigen::Vector2d target((pixel.x() - p_.cx) / p_.fx, (pixel.y() - p_.cy) / p_.fy);
   // Newton's method on distort(n) = target from n = target. Inside the monotonic radius the map is
-  // one-to-one and this converges in a few steps; a pixel that no point inside it reaches has no ray.
+  // one-to-one and this converges in a few steps; a pixel that no point inside it reaches has no
+  // ray.
   Eigen::Vector2d n = target;
   const auto& [k1, k2, p1, p2, k3] = p_.distortion;
   for (int iteration = 0; iteration < 50; ++iteration) {

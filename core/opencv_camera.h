@@ -23,9 +23,9 @@ class OpenCvCamera final : public CameraModel {
 
   const OpenCvParameters& parameters() const { return p_; }
 
-  // The normalised radius r = |(x, y)| / z where the radial polynomial r (1 + k1 r^2 + k2 r^4 + k3 r^6)
-  // stops increasing (infinite if it never does). Past it OpenCV folds points back into the picture;
-  // we give them no image, and no pixel maps past it.
+  // The normalised radius r = |(x, y)| / z where the radial polynomial r (1 + k1 r^2 + k2 r^4 + k3
+  // r^6) stops increasing (infinite if it never does). Past it OpenCV folds points back into the
+  // picture; we give them no image, and no pixel maps past it.
   double maxRadius() const { return max_radius_; }
 
  protected:
@@ -39,7 +39,8 @@ class OpenCvCamera final : public CameraModel {
   double max_radius_;
 };
 
-// Rodrigues' formula: the rotation matrix of a rotation vector (axis times angle), as cv::Rodrigues.
+// Rodrigues' formula: the rotation matrix of a rotation vector (axis times angle), as
+// cv::Rodrigues.
 Eigen::Matrix3d rotationFromRodrigues(const Eigen::Vector3d& rvec);
 
 }  // namespace occmap

@@ -26,9 +26,9 @@ inline bool unchanged(const CameraFrame& camera, std::uint32_t pixel) {
 }
 
 // The yardstick every fast kernel is tested against: cell by cell, camera by camera, straight from
-// the definitions. A cell is FREE when some live camera that sees it clears it (by its table's rule),
-// OCCUPIED when a live camera sees it and none clears it, UNSEEN when no live camera sees it.
-// Throws std::invalid_argument when an image's size differs from its table's.
+// the definitions. A cell is FREE when some live camera that sees it clears it (by its table's
+// rule), OCCUPIED when a live camera sees it and none clears it, UNSEEN when no live camera sees
+// it. Throws std::invalid_argument when an image's size differs from its table's.
 OccupancyMap fuseReference(const MapGeometry& map, std::span<const CameraFrame> cameras);
 
 }  // namespace occmap

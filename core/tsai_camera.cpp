@@ -17,7 +17,8 @@ TsaiCamera::TsaiCamera(const TsaiParameters& parameters)
     : CameraModel(tsaiPose(parameters), parameters.width, parameters.height), p_(parameters) {
   if (p_.kappa1 < 0.0) {
     max_distorted_radius_ = std::sqrt(-1.0 / (3.0 * p_.kappa1));
-    max_undistorted_radius_ = max_distorted_radius_ * (2.0 / 3.0);  // Rd (1 + kappa1 Rd^2) at the peak
+    max_undistorted_radius_ =
+        max_distorted_radius_ * (2.0 / 3.0);  // Rd (1 + kappa1 Rd^2) at the peak
   } else {
     max_distorted_radius_ = std::numeric_limits<double>::infinity();
     max_undistorted_radius_ = std::numeric_limits<double>::infinity();
@@ -39,7 +40,8 @@ std::optional<double> TsaiCamera::distortedRadius(double ru) const {
     const double root = std::sqrt(discriminant);
     const double rd = std::cbrt(r + root) + std::cbrt(r - root);
     if (rd >= 0.0) return rd;
-    // Within rounding of the limit the discriminant can come out a hair above zero: that is the limit.
+    // Within rounding of the limit the discriminant can come out a hair above zero: that is the
+    // limit.
     if (ru <= max_undistorted_radius_) return max_distorted_radius_;
     return std::nullopt;
   }
@@ -47,8 +49,8 @@ std::optional<double> TsaiCamera::distortedRadius(double ru) const {
     // A double root: exactly on the barrel limit (kappa1 < 0), where the positive root is -cbrt(r).
     return -std::cbrt(r);
   }
-  // Three real roots (kappa1 < 0 inside the limit): Willson takes the smaller positive one, the only
-  // one on the monotonic part of the model.
+  // Three real roots (kappa1 < 0 inside the limit): Willson takes the smaller positive one, the
+  // only one on the monotonic part of the model.
   const double root = std::sqrt(-discriminant);
   const double s = std::cbrt(std::hypot(r, root));
   const double t = std::atan2(root, r) / 3.0;

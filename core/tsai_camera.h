@@ -4,10 +4,11 @@
 
 namespace occmap {
 
-// Tsai's camera model with its parameters as Willson's reference implementation (and the ETISEO/PETS
-// XML files) name them. Lengths in millimetres (or the file's own unit), angles in radians.
+// Tsai's camera model with its parameters as Willson's reference implementation (and the
+// ETISEO/PETS XML files) name them. Lengths in millimetres (or the file's own unit), angles in
+// radians.
 struct TsaiParameters {
-  int width = 0;   // image size in pixels
+  int width = 0;  // image size in pixels
   int height = 0;
   double ncx = 0;  // sensor elements in x
   double nfx = 0;  // pixels in a frame grabber row
@@ -19,7 +20,7 @@ struct TsaiParameters {
   double kappa1 = 0;  // radial distortion on the sensor plane: Xu = Xd (1 + kappa1 r^2)
   double cx = 0;      // image centre in pixels
   double cy = 0;
-  double sx = 1;      // horizontal scale factor
+  double sx = 1;                  // horizontal scale factor
   double tx = 0, ty = 0, tz = 0;  // T: Xc = R Xw + T
   double rx = 0, ry = 0, rz = 0;  // R = Rz(rz) Ry(ry) Rx(rx)
 };
@@ -30,9 +31,9 @@ class TsaiCamera final : public CameraModel {
 
   const TsaiParameters& parameters() const { return p_; }
 
-  // For kappa1 < 0 (pincushion on the sensor plane) the undistorted radius Ru = Rd (1 + kappa1 Rd^2)
-  // peaks at Rd = sqrt(-1 / (3 kappa1)); past it the model folds back. These are that limit on the
-  // distorted (sensor) and undistorted radius, infinite for kappa1 >= 0.
+  // For kappa1 < 0 (pincushion on the sensor plane) the undistorted radius Ru = Rd (1 + kappa1
+  // Rd^2) peaks at Rd = sqrt(-1 / (3 kappa1)); past it the model folds back. These are that limit
+  // on the distorted (sensor) and undistorted radius, infinite for kappa1 >= 0.
   double maxDistortedRadius() const { return max_distorted_radius_; }
   double maxUndistortedRadius() const { return max_undistorted_radius_; }
 

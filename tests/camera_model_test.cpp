@@ -1,8 +1,9 @@
-// Camera geometry on analytic cases: what a user relies on when a calibration says where a pixel looks.
-#include <gtest/gtest.h>
-
+// Camera geometry on analytic cases: what a user relies on when a calibration says where a pixel
+// looks.
 #include <cmath>
 #include <numbers>
+
+#include <gtest/gtest.h>
 
 #include "core/camera.h"
 #include "core/opencv_camera.h"
@@ -93,9 +94,9 @@ TEST(TsaiCamera, HorizontalCameraSeesNoFloorAboveTheHorizon) {
   p.ty = 1000;  // centre = -R^T T: (0, 0, 1000)
   const TsaiCamera camera(p);
   ASSERT_NEAR(camera.pose().centre().z(), 1000.0, 1e-9);
-  EXPECT_TRUE(camera.imageToPlane({320, 400}, 0.0));    // below the horizon: the floor
-  EXPECT_FALSE(camera.imageToPlane({320, 240}, 0.0));   // on the horizon: parallel to the floor
-  EXPECT_FALSE(camera.imageToPlane({320, 100}, 0.0));   // above it: the ray rises
+  EXPECT_TRUE(camera.imageToPlane({320, 400}, 0.0));     // below the horizon: the floor
+  EXPECT_FALSE(camera.imageToPlane({320, 240}, 0.0));    // on the horizon: parallel to the floor
+  EXPECT_FALSE(camera.imageToPlane({320, 100}, 0.0));    // above it: the ray rises
   EXPECT_TRUE(camera.imageToPlane({320, 100}, 1500.0));  // but meets a plane above the camera
 }
 
@@ -106,7 +107,8 @@ TEST(TsaiCamera, NegativeKappaHasABarrelLimit) {
   const double rd_max = std::sqrt(-1.0 / (3.0 * kappa1));
   EXPECT_NEAR(camera.maxDistortedRadius(), rd_max, 1e-12);
   EXPECT_NEAR(camera.maxUndistortedRadius(), 2.0 / 3.0 * rd_max, 1e-12);
-  // Inside the limit, the smaller positive root of the cubic: it satisfies the model and lies below Rd*.
+  // Inside the limit, the smaller positive root of the cubic: it satisfies the model and lies below
+  // Rd*.
   for (double fraction : {0.01, 0.3, 0.7, 0.99, 0.999999}) {
     const double ru = fraction * camera.maxUndistortedRadius();
     const auto rd = camera.distortedRadius(ru);

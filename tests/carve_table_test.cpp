@@ -1,11 +1,12 @@
 // Carve tables: no holes, the paper's table inside ours, floor masks honoured, column carving
 // monotone in its height.
-#include <gtest/gtest.h>
+#include "core/carve_table.h"
 
 #include <algorithm>
 #include <random>
 
-#include "core/carve_table.h"
+#include <gtest/gtest.h>
+
 #include "core/reference_fusion.h"
 #include "random_cameras.h"
 
@@ -40,8 +41,8 @@ TEST(CarveTable, FloorTableHasNoHolesAndHoldsThePapersTable) {
   for (int trial = 0; trial < 60; ++trial) {
     const auto [camera, map] = testing::randomRig(rng);
     const bool masked = trial % 2 == 1;
-    const Image mask = masked ? randomMask(rng, camera.streamWidth(), camera.streamHeight())
-                              : Image();
+    const Image mask =
+        masked ? randomMask(rng, camera.streamWidth(), camera.streamHeight()) : Image();
     const ImageView mask_view = masked ? mask.view() : ImageView{};
     auto floor = [&](int pixel) {
       return !masked || mask.at(pixel % camera.streamWidth(), pixel / camera.streamWidth()) != 0;
@@ -79,8 +80,8 @@ TEST(CarveTable, FloorTableHasNoHolesAndHoldsThePapersTable) {
     // ... and nothing else.
     for (auto& pixels : expected) {
       std::sort(pixels.begin(), pixels.end());
-      expected_entries += static_cast<std::size_t>(
-          std::unique(pixels.begin(), pixels.end()) - pixels.begin());
+      expected_entries +=
+          static_cast<std::size_t>(std::unique(pixels.begin(), pixels.end()) - pixels.begin());
     }
     EXPECT_EQ(table.entries(), expected_entries) << "trial " << trial;
     if (table.cellsInView() > 0) ++cameras_with_cells;
@@ -100,8 +101,8 @@ TEST(CarveTable, ColumnTableDecidesEverySeenCellByItsWholeColumn) {
       for (int column = 0; column < map.width; ++column) {
         const std::size_t cell = static_cast<std::size_t>(map.index(row, column));
         const auto pixel = centrePixel(camera, map, row, column);
-        const bool seen = pixel && mask.at(*pixel % camera.streamWidth(),
-                                           *pixel / camera.streamWidth()) != 0;
+        const bool seen =
+            pixel && mask.at(*pixel % camera.streamWidth(), *pixel / camera.streamWidth()) != 0;
         ASSERT_EQ(table.sees(cell), seen) << "trial " << trial;
         if (!seen) continue;
         ASSERT_TRUE(contains(table.pixelsOf(cell), *pixel));
@@ -181,14 +182,16 @@ TEST(SegmentWalk, VisitsEveryPixelTheSegmentCrossesAndNoOther) {
   std::uniform_real_distribution<double> coordinate(-3, 23);
   for (int trial = 0; trial < 2000; ++trial) {
     const Eigen::Vector2d a(coordinate(rng), coordinate(rng));
-    const Eigen::Vector2d b = trial % 3 == 0 ? a : Eigen::Vector2d(coordinate(rng), coordinate(rng));
+    const Eigen::Vector2d b =
+        trial % 3 == 0 ? a : Eigen::Vector2d(coordinate(rng), coordinate(rng));
     std::vector<std::uint32_t> walked;
     forEachPixelOnSegment(a, b, 20, 20, walked);
     std::vector<std::uint32_t> sampled;
     for (int k = 0; k <= 20000; ++k) {
       const Eigen::Vector2d p = a + (b - a) * (k / 20000.0);
       const double u = std::floor(p.x() + 0.5), v = std::floor(p.y() + 0.5);
-      if (u >= 0 && v >= 0 && u < 20 && v < 20) sampled.push_back(static_cast<std::uint32_t>(v * 20 + u));
+      if (u >= 0 && v >= 0 && u < 20 && v < 20)
+        sampled.push_back(static_cast<std::uint32_t>(v * 20 + u));
     }
     std::sort(walked.begin(), walked.end());
     std::sort(sampled.begin(), sampled.end());

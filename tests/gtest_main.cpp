@@ -1,9 +1,9 @@
-// The project's GoogleTest main: a binary whose tests skipped (a real part such as ../shared/data or a
-// network namespace is absent) exits 77, which CTest reports as "Skipped" (SKIP_RETURN_CODE), never
-// as passed.
-#include <gtest/gtest.h>
-
+// The project's GoogleTest main: a binary whose tests skipped (a real part such as ../shared/data
+// or a network namespace is absent) exits 77, which CTest reports as "Skipped" (SKIP_RETURN_CODE),
+// never as passed.
 #include <cstdio>
+
+#include <gtest/gtest.h>
 
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);

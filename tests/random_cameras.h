@@ -16,10 +16,12 @@ struct RandomRig {
 };
 
 inline RandomRig randomRig(std::mt19937_64& rng) {
-  auto uniform = [&](double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); };
+  auto uniform = [&](double a, double b) {
+    return std::uniform_real_distribution<double>(a, b)(rng);
+  };
   auto integer = [&](int a, int b) { return std::uniform_int_distribution<int>(a, b)(rng); };
-  // A camera 1-5 m up, looking at a floor point 1-6 m away, any lens from wide to narrow, with barrel
-  // or pincushion distortion, and a small image so that the test runs many of them.
+  // A camera 1-5 m up, looking at a floor point 1-6 m away, any lens from wide to narrow, with
+  // barrel or pincushion distortion, and a small image so that the test runs many of them.
   const Eigen::Vector3d position(uniform(-3, 3), uniform(-3, 3), uniform(1, 5));
   const double angle = uniform(0, 6.283);
   const double reach = uniform(1, 6);
@@ -54,7 +56,8 @@ inline RandomRig randomRig(std::mt19937_64& rng) {
     case 1:
       stream_width = p.width / 2;
       stream_height = p.height / 2;
-      region = {0, 0, static_cast<double>(stream_width * 2), static_cast<double>(stream_height * 2)};
+      region = {0, 0, static_cast<double>(stream_width * 2),
+                static_cast<double>(stream_height * 2)};
       break;
     default:
       region = {5, 3, static_cast<double>(p.width - 10), static_cast<double>(p.height - 8)};

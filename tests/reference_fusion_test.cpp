@@ -1,10 +1,11 @@
 // The reference fusion on cases small enough to check by hand.
-#include <gtest/gtest.h>
+#include "core/reference_fusion.h"
 
 #include <numbers>
 
+#include <gtest/gtest.h>
+
 #include "core/carve_table.h"
-#include "core/reference_fusion.h"
 #include "core/tsai_camera.h"
 
 namespace occmap {

@@ -3,14 +3,14 @@
 //
 // The tolerance, exactly: a camera judges a cell through the one pixel its centre falls in, and
 // renders that pixel by the ray through the pixel's centre. Where an outline in the image (of an
-// object, a shelf or a wall) passes between the cell centre's image and that pixel's centre, the pixel
-// and the cell disagree. Such cells, "cut by an edge" in some camera, are exempt; so are cells that an
-// object's footprint covers only in part. Everything else must hold without exception, and the
-// exempt share is bounded so that the exemption cannot swallow a real fault.
-#include <gtest/gtest.h>
-
+// object, a shelf or a wall) passes between the cell centre's image and that pixel's centre, the
+// pixel and the cell disagree. Such cells, "cut by an edge" in some camera, are exempt; so are
+// cells that an object's footprint covers only in part. Everything else must hold without
+// exception, and the exempt share is bounded so that the exemption cannot swallow a real fault.
 #include <bit>
 #include <cstdio>
+
+#include <gtest/gtest.h>
 
 #include "capture/sim/renderer.h"
 #include "core/carve_table.h"
@@ -61,8 +61,8 @@ Frames render(double t, std::uint64_t frame_number) {
 OccupancyMap fuse(const std::vector<CarveTable>& tables, const Frames& frames) {
   std::vector<CameraFrame> cameras;
   for (std::size_t k = 0; k < tables.size(); ++k) {
-    cameras.push_back({&tables[k], frames.live[k].view(), rig().renderers[k]->background().view(),
-                       20});
+    cameras.push_back(
+        {&tables[k], frames.live[k].view(), rig().renderers[k]->background().view(), 20});
   }
   return fuseReference(rig().map, cameras);
 }
@@ -138,8 +138,8 @@ TEST(SimulatedRoom, FloorCarvingAgreesWithTheTruthExceptAtEdges) {
           ++clear_exempt;
           continue;
         }
-        ASSERT_EQ(state, CellState::kFree) << "t " << t << " cell " << cell
-                                           << ": a camera sees it clearly, the map says not free";
+        ASSERT_EQ(state, CellState::kFree)
+            << "t " << t << " cell " << cell << ": a camera sees it clearly, the map says not free";
       }
       if (truth.footprint[cell] == sim::GroundTruth::kInside) {
         // Under an object: never FREE, unless a camera's pixel for it shows floor past the outline.
@@ -153,15 +153,16 @@ TEST(SimulatedRoom, FloorCarvingAgreesWithTheTruthExceptAtEdges) {
           ++inside_exempt;
           continue;
         }
-        ASSERT_NE(state, CellState::kFree) << "t " << t << " cell " << cell
-                                           << ": inside an object, the map says free";
+        ASSERT_NE(state, CellState::kFree)
+            << "t " << t << " cell " << cell << ": inside an object, the map says free";
       }
     }
   }
-  std::printf("clear-view cells %zu, exempt %zu (%.3f %%); cells inside objects %zu, exempt %zu "
-              "(%.3f %%); cells cut by a footprint edge %zu\n",
-              clear_cells, clear_exempt, percent(clear_exempt, clear_cells), inside_cells,
-              inside_exempt, percent(inside_exempt, inside_cells), edge_cells);
+  std::printf(
+      "clear-view cells %zu, exempt %zu (%.3f %%); cells inside objects %zu, exempt %zu "
+      "(%.3f %%); cells cut by a footprint edge %zu\n",
+      clear_cells, clear_exempt, percent(clear_exempt, clear_cells), inside_cells, inside_exempt,
+      percent(inside_exempt, inside_cells), edge_cells);
   EXPECT_GT(clear_cells, 7u * 40000u) << "the cameras should see most of the room";
   EXPECT_GT(inside_cells, 7u * 1000u) << "the objects should cover cells";
   EXPECT_LT(clear_exempt, clear_cells / 100) << "over 1 % of clear cells cut by edges";
@@ -169,8 +170,8 @@ TEST(SimulatedRoom, FloorCarvingAgreesWithTheTruthExceptAtEdges) {
 }
 
 TEST(SimulatedRoom, ColumnCarvingFindsEveryObject) {
-  // With 0.3 m columns, every object (people, chairs, the 0.35 m robot) keeps a non-free cell, and no
-  // cell wholly inside an object is ever cleared.
+  // With 0.3 m columns, every object (people, chairs, the 0.35 m robot) keeps a non-free cell, and
+  // no cell wholly inside an object is ever cleared.
   const std::vector<CarveTable> column_tables = tables(0.3);
   const sim::TruthMaker truth_maker(rig().views(), rig().map);
   for (const double t : {1.0, 4.4, 9.7, 13.0, 16.6}) {

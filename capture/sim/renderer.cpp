@@ -110,7 +110,8 @@ void Renderer::render(const std::vector<SceneObject>& objects, std::uint64_t fra
       }
     }
   }
-  // Sensor noise: the sum of two uniform integers in [-3, 3], the same for the same frame and camera.
+  // Sensor noise: the sum of two uniform integers in [-3, 3], the same for the same frame and
+  // camera.
   std::uint64_t state = frame_number * 0x100000001b3ull + static_cast<std::uint64_t>(camera_index_);
   std::uint8_t* pixel = out.data();
   const std::size_t count = directions_.size();
@@ -177,14 +178,14 @@ GroundTruth TruthMaker::at(const std::vector<SceneObject>& objects) const {
   for (std::size_t k = 0; k < objects.size(); ++k) {
     const Solid& solid = objects[k].solid;
     // Only the cells under the solid's bounding square can be touched by its footprint.
-    const auto first_column = static_cast<int>(std::floor(
-        (solid.centre.x() - solid.half_size.x() - map_.origin_x_m) / cell_size));
-    const auto last_column = static_cast<int>(std::floor(
-        (solid.centre.x() + solid.half_size.x() - map_.origin_x_m) / cell_size));
-    const auto first_row = static_cast<int>(std::floor(
-        (solid.centre.y() - solid.half_size.y() - map_.origin_y_m) / cell_size));
-    const auto last_row = static_cast<int>(std::floor(
-        (solid.centre.y() + solid.half_size.y() - map_.origin_y_m) / cell_size));
+    const auto first_column = static_cast<int>(
+        std::floor((solid.centre.x() - solid.half_size.x() - map_.origin_x_m) / cell_size));
+    const auto last_column = static_cast<int>(
+        std::floor((solid.centre.x() + solid.half_size.x() - map_.origin_x_m) / cell_size));
+    const auto first_row = static_cast<int>(
+        std::floor((solid.centre.y() - solid.half_size.y() - map_.origin_y_m) / cell_size));
+    const auto last_row = static_cast<int>(
+        std::floor((solid.centre.y() + solid.half_size.y() - map_.origin_y_m) / cell_size));
     for (int row = std::max(0, first_row); row <= std::min(map_.height - 1, last_row); ++row) {
       for (int column = std::max(0, first_column); column <= std::min(map_.width - 1, last_column);
            ++column) {

@@ -13,7 +13,8 @@ namespace occmap::sim {
 // Renders what one camera sees of a scene: one ray through each pixel centre (the stream's pixels,
 // through the camera's lens model), the nearest surface's grey level, plus sensor noise. The static
 // room is rendered once; a frame composites the moving objects over it, ray-casting only the pixels
-// inside each object's projected bounds, which keeps four 640x480 cameras at video rate on one core.
+// inside each object's projected bounds, which keeps four 640x480 cameras at video rate on one
+// core.
 class Renderer {
  public:
   // `camera_index` tells this camera's noise apart from the others'.
@@ -54,8 +55,8 @@ class Renderer {
 // The scene's truth on a map at one moment, for tests and for the demo's comparison.
 struct GroundTruth {
   enum Footprint : std::uint8_t { kClear = 0, kEdge = 1, kInside = 2 };
-  // Per cell: kInside when the cell lies wholly inside an object's footprint, kEdge when an object's
-  // outline cuts it, kClear otherwise.
+  // Per cell: kInside when the cell lies wholly inside an object's footprint, kEdge when an
+  // object's outline cuts it, kClear otherwise.
   std::vector<std::uint8_t> footprint;
   // Per cell: bit k set when camera k has a clear view of the cell's centre on the floor.
   std::vector<std::uint32_t> clear_view;

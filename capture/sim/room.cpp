@@ -1,6 +1,7 @@
-// The built-in scene "room": the paper's experiment (section 4). A room of about 9 x 6.5 m lined with
-// 2 m bookshelves, four 640x480 cameras on top of them, two with 3.5 mm and two with 6.0 mm lenses,
-// and what the paper shows moving in it: people walking, chairs being pushed, a small robot.
+// The built-in scene "room": the paper's experiment (section 4). A room of about 9 x 6.5 m lined
+// with 2 m bookshelves, four 640x480 cameras on top of them, two with 3.5 mm and two with 6.0 mm
+// lenses, and what the paper shows moving in it: people walking, chairs being pushed, a small
+// robot.
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -34,8 +35,8 @@ double unitHash(long a, long b, std::uint32_t salt) {
   return hash(ua * 73856093u ^ hash(ub * 19349663u ^ salt)) / 4294967295.0;
 }
 
-// A camera at `position` looking at `target` (metres), as Tsai parameters in millimetres. The sensor
-// is a 1/2" CCD like the paper's Sony XC-999: 640 x 480 pixels of 10 um.
+// A camera at `position` looking at `target` (metres), as Tsai parameters in millimetres. The
+// sensor is a 1/2" CCD like the paper's Sony XC-999: 640 x 480 pixels of 10 um.
 SceneCamera lookAt(std::string name, const Eigen::Vector3d& position, const Eigen::Vector3d& target,
                    double focal_mm, double kappa1, double cx, double cy) {
   const Pose pose = poseLookingAt(position * 1000.0, target * 1000.0);
@@ -103,7 +104,8 @@ class RoomScene final : public Scene {
         box(0.0, 4.1, kShelfDepth, far_y, kShelfHeight),
         box(far_x, kShelfDepth, kRoomX, far_y, kShelfHeight),
     };
-    // The two wide cameras in opposite corners look across the middle; the two narrow ones reach far.
+    // The two wide cameras in opposite corners look across the middle; the two narrow ones reach
+    // far.
     const double in = kShelfDepth + 0.05;  // just in front of the corner shelves
     cameras_ = {
         lookAt("c0", {in, in, kCameraHeight}, {4.6, 3.3, 0.0}, 3.5, 8e-3, 318.4, 243.1),
@@ -136,10 +138,10 @@ class RoomScene final : public Scene {
     return {
         {ObjectKind::kPerson, cylinder(walker, 0.25, 1.75)},
         {ObjectKind::kPerson, cylinder(strider, 0.25, 1.70)},
-        {ObjectKind::kChair, box(chair1.x() - 0.25, chair1.y() - 0.25, chair1.x() + 0.25,
-                                 chair1.y() + 0.25, 0.9)},
-        {ObjectKind::kChair, box(chair2.x() - 0.25, chair2.y() - 0.25, chair2.x() + 0.25,
-                                 chair2.y() + 0.25, 0.9)},
+        {ObjectKind::kChair,
+         box(chair1.x() - 0.25, chair1.y() - 0.25, chair1.x() + 0.25, chair1.y() + 0.25, 0.9)},
+        {ObjectKind::kChair,
+         box(chair2.x() - 0.25, chair2.y() - 0.25, chair2.x() + 0.25, chair2.y() + 0.25, 0.9)},
         {ObjectKind::kRobot, cylinder(robot, 0.22, 0.35)},
     };
   }
@@ -153,7 +155,8 @@ class RoomScene final : public Scene {
       const double across = p.y() - row * 0.2;
       const double along = shifted - plank * 1.2;
       if (across < 0.008 || along < 0.008) return 102.0;
-      const double base = 112.0 + 26.0 * unitHash(static_cast<long>(row), static_cast<long>(plank), 1);
+      const double base =
+          112.0 + 26.0 * unitHash(static_cast<long>(row), static_cast<long>(plank), 1);
       return base + 6.0 * std::sin(p.x() * 37.0 + 3.0 * std::sin(p.y() * 11.0));
     }
     if (normal.z() < -0.5) return 215.0;  // ceiling
@@ -167,15 +170,16 @@ class RoomScene final : public Scene {
     }
     // Painted walls, slightly mottled.
     const double along = std::abs(normal.x()) > 0.5 ? p.y() : p.x();
-    return 200.0 + 15.0 * unitHash(static_cast<long>(along / 0.3), static_cast<long>(p.z() / 0.3), 3);
+    return 200.0 +
+           15.0 * unitHash(static_cast<long>(along / 0.3), static_cast<long>(p.z() / 0.3), 3);
   }
 
   double objectShade(const SceneObject& object, const Eigen::Vector3d& p) const override {
     switch (object.kind) {
       case ObjectKind::kPerson:
-        if (p.z() < 0.85) return 34.0;                               // trousers
+        if (p.z() < 0.85) return 34.0;                                        // trousers
         if (p.z() < 1.5) return std::fmod(p.z(), 0.16) < 0.08 ? 52.0 : 58.0;  // striped shirt
-        return 26.0;                                                 // hair
+        return 26.0;                                                          // hair
       case ObjectKind::kChair:
         return p.z() > 0.42 && p.z() < 0.48 ? 30.0 : 46.0;
       case ObjectKind::kRobot:

@@ -97,6 +97,12 @@ std::string_view objectKindName(ObjectKind kind) {
   return "object";
 }
 
+bool Scene::roomContains(const Eigen::Vector3d& p) const {
+  const Eigen::Vector2d size = roomSize();
+  return p.x() > 0 && p.y() > 0 && p.z() > 0 && p.x() < size.x() && p.y() < size.y() &&
+         p.z() < wallHeight();
+}
+
 Scene::Hit Scene::castStatic(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
   // The room is a closed box: from inside, the ray leaves it through the nearest face it heads to.
   const Eigen::Vector2d size = roomSize();

@@ -1,12 +1,13 @@
 #pragma once
 
-#include <Eigen/Core>
 #include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "core/tsai_camera.h"
 
@@ -31,7 +32,8 @@ struct Solid {
   // Whether the footprint overlaps / contains the axis-aligned square [min, max].
   bool footprintOverlaps(const Eigen::Vector2d& min, const Eigen::Vector2d& max) const;
   bool footprintCovers(const Eigen::Vector2d& min, const Eigen::Vector2d& max) const;
-  // Where origin + t direction first enters the solid for t in (t_min, t_max), with the outward normal.
+  // Where origin + t direction first enters the solid for t in (t_min, t_max), with the outward
+  // normal.
   struct Hit {
     double t;
     Eigen::Vector3d normal;
@@ -76,8 +78,11 @@ class Scene {
   virtual Eigen::Vector2d roomSize() const = 0;
   virtual double wallHeight() const = 0;
   virtual const std::vector<Solid>& furniture() const = 0;
+  // Whether a point lies inside the room (where a camera must stand to see it from within).
+  bool roomContains(const Eigen::Vector3d& point) const;
 
-  // Grey level of a static surface point; `normal` tells floor (z), walls and furniture sides apart.
+  // Grey level of a static surface point; `normal` tells floor (z), walls and furniture sides
+  // apart.
   virtual double staticShade(const Eigen::Vector3d& point, const Eigen::Vector3d& normal) const = 0;
   virtual double objectShade(const SceneObject& object, const Eigen::Vector3d& point) const = 0;
 

@@ -1,0 +1,45 @@
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "core/camera_model.h"
+#include "core/opencv_camera.h"
+#include "core/tsai_camera.h"
+
+namespace occmap {
+
+// Calibration files as users bring them (ARCHITECTURE.md, Conventions). Every problem with a file's
+// content is an InputError naming the file, the line where known and the field.
+
+// Tsai's model in the ETISEO/PETS XML layout:
+//   <Camera name="..."><Geometry width height ncx nfx dx dy dpx dpy/>
+//   <Intrinsic focal kappa1 cx cy sx/><Extrinsic tx ty tz rx ry rz/></Camera>
+// Every attribute is required except dpx (then dx * ncx / nfx, Willson's definition) and dpy (then
+// dy); given ones must agree with those definitions. Fields are named "Element.attribute".
+TsaiParameters loadTsaiXml(const std::filesystem::path& file);
+// The same from text already in memory; `file_name` only names the source in errors.
+TsaiParameters parseTsaiXml(std::string_view text, const std::string& file_name);
+
+// OpenCV's pinhole model in the YAML that cv::FileStorage writes (OpenCV's calibration sample):
+// image_width, image_height, camera_matrix (3x3, no skew), distortion_coefficients (k1 k2 p1 p2
+// [k3]; OpenCV's longer models only when their extra coefficients are zero), rvec, tvec (3 values
+// each). cv::FileStorage does not say where a value is, so errors about values carry line 0; syntax
+// errors carry the parser's line.
+OpenCvParameters loadOpenCvYaml(const std::filesystem::path& file);
+OpenCvParameters parseOpenCvYaml(std::string_view text, const std::string& file_name);
+
+// A calibration file of either kind, told apart by content: XML ("<?xml" or "<" first) is Tsai,
+// "%YAML" first or a .yml/.yaml name is OpenCV YAML.
+struct LoadedCalibration {
+  std::shared_ptr<const CameraModel> model;
+  LengthUnit units;  // the file's length unit: `units` if given, else mm for Tsai, m for OpenCV
+  std::string kind;  // "tsai" or "opencv"
+};
+LoadedCalibration loadCalibration(const std::filesystem::path& file,
+                                  std::optional<LengthUnit> units = std::nullopt);
+
+}  // namespace occmap

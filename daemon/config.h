@@ -1,0 +1,73 @@
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/camera_model.h"
+#include "core/map_geometry.h"
+
+namespace occmap {
+
+// occmapd's config file (ARCHITECTURE.md, "Interfaces other people program against"): YAML, lengths
+// in metres, paths relative to the file. Loading checks everything that can be checked without
+// opening other files; every problem is an InputError naming the file, the line and the key path
+// ("cameras[2].threshold"). Whether referenced files exist is for the stage that opens them, which
+// names the line with CameraConfig::lineOf().
+
+struct FusionSettings {
+  int threshold = 20;            // grey levels a live pixel must differ from the background by
+  double column_height_m = 0.3;  // column carving height; 0 carves the floor point only
+  int max_wait_ms = 50;          // how long fusion waits for the other cameras after a first frame
+};
+
+struct TransportSettings {
+  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string map_channel = "OCCMAP_MAP";
+  std::string status_channel = "OCCMAP_STATUS";
+  std::string encoding = "zstd";  // "raw" or "zstd"
+};
+
+struct CameraConfig {
+  std::string name;
+  std::string source;  // as written: files://..., sim://..., aravis://..., v4l2://...
+  // Paths are resolved against the config file's folder (made absolute) and normalised.
+  std::optional<std::filesystem::path> calibration;  // absent only for sim:// sources
+  std::optional<LengthUnit> calibration_units;       // absent: the calibration kind's default
+  std::optional<ImageRegion> image_region;           // absent: the whole calibration frame
+  std::optional<std::filesystem::path> background;   // absent only for sim:// sources
+  std::optional<std::filesystem::path> floor_mask;
+  std::optional<int> threshold;  // absent: FusionSettings::threshold
+  std::optional<double> fps;
+  // Backend features (GenICam names for Aravis, V4L2 controls), values as written, in file order.
+  std::vector<std::pair<std::string, std::string>> settings;
+  int line = 0;                          // line of the camera's entry
+  std::map<std::string, int> key_lines;  // line of each key given ("calibration" -> 12)
+
+  // The line of `key` if the entry gives it, else the entry's line: where to point a later error.
+  int lineOf(std::string_view key) const;
+  int effectiveThreshold(const FusionSettings& fusion) const;
+};
+
+struct Config {
+  std::filesystem::path file;  // as given to loadConfig
+  MapGeometry map;
+  FusionSettings fusion;
+  TransportSettings transport;
+  std::vector<CameraConfig> cameras;
+};
+
+// Reads and checks a config file. A missing or unreadable file is an InputError too.
+Config loadConfig(const std::filesystem::path& file);
+// The same for text in memory; `file` names the source in errors and is the base of relative paths.
+Config parseConfig(const std::string& yaml_text, const std::filesystem::path& file);
+
+// The source schemes occmapd knows, as they start a camera's `source`.
+inline constexpr std::string_view kSourceSchemes[] = {"files://", "sim://", "aravis://", "v4l2://"};
+
+}  // namespace occmap

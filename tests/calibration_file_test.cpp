@@ -1,0 +1,545 @@
+// Calibration files as users bring them: a Tsai (ETISEO XML) or OpenCV (cv::FileStorage YAML) file
+// loads into exactly the camera it describes, and a broken one is refused with the file, line and
+// field named. The OpenCV loader is checked against OpenCV itself.
+#include "daemon/calibration_file.h"
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <random>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <unistd.h>
+
+#include "daemon/input_error.h"
+
+namespace occmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+class TemporaryFolder {
+ public:
+  TemporaryFolder() {
+    static std::atomic<int> counter{0};
+    path_ = fs::temp_directory_path() / ("occmap-calibration-test-" + std::to_string(::getpid()) +
+                                         "-" + std::to_string(counter++));
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TemporaryFolder() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+  }
+  TemporaryFolder(const TemporaryFolder&) = delete;
+  TemporaryFolder& operator=(const TemporaryFolder&) = delete;
+
+  fs::path file(const std::string& name) const { return path_ / name; }
+  fs::path write(const std::string& name, const std::string& text) const {
+    std::ofstream(file(name), std::ios::binary) << text;
+    return file(name);
+  }
+
+ private:
+  fs::path path_;
+};
+
+InputError errorOf(const std::function<void()>& load) {
+  try {
+    load();
+  } catch (const InputError& error) {
+    return error;
+  }
+  ADD_FAILURE() << "the file was accepted but should be refused";
+  return InputError("", 0, "", "");
+}
+
+bool says(const InputError& error, const std::string& text) {
+  return std::string(error.what()).find(text) != std::string::npos;
+}
+
+// ----------------------------------------------------------------------------------------------
+// Tsai XML
+
+// PETS 2009 View_001's values, laid out over several lines as the EPFL files are. Line numbers:
+std::string tsaiXml(const std::string& geometry =
+                        "width=\"768\" height=\"576\" ncx=\"7.9500000000e+02\"\n"
+                        "            nfx=\"7.5200000000e+02\" dx=\"4.8500000000e-03\"\n"
+                        "            dy=\"4.6500000000e-03\" dpx=\"5.1273271277e-03\"\n"
+                        "            dpy=\"4.6500000000e-03\"",
+                    const std::string& intrinsic =
+                        "focal=\"5.5549183034e+00\" kappa1=\"5.1113043639e-03\"\n"
+                        "             cx=\"3.2422149053e+02\" cy=\"2.8256650051e+02\" "
+                        "sx=\"1.0937855397e+00\"") {
+  return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"  // 1
+         "\n"                                            // 2
+         "<Camera name=\"View_001\">\n"                  // 3
+         "  <Geometry " +                                // 4..7
+         geometry +
+         "/>\n"
+         "  <Intrinsic " +  // 8..9
+         intrinsic +
+         "/>\n"
+         "  <Extrinsic tx=\"8.2873214225e+02\" ty=\"-3.1754796051e+03\" tz=\"3.5469298547e+04\"\n"
+         "             rx=\"2.0405458695e+00\" ry=\"-8.9337703748e-01\" "
+         "rz=\"-4.3056124791e-01\"/>\n"
+         "</Camera>\n";
+}
+
+TEST(TsaiXml, ValidFileLoadsExactly) {
+  const TemporaryFolder folder;
+  const TsaiParameters p = loadTsaiXml(folder.write("view.xml", tsaiXml()));
+  EXPECT_EQ(p.width, 768);
+  EXPECT_EQ(p.height, 576);
+  EXPECT_EQ(p.ncx, 795.0);
+  EXPECT_EQ(p.nfx, 752.0);
+  EXPECT_EQ(p.dx, 4.85e-3);
+  EXPECT_EQ(p.dy, 4.65e-3);
+  EXPECT_EQ(p.dpx, 5.1273271277e-03);
+  EXPECT_EQ(p.dpy, 4.65e-3);
+  EXPECT_EQ(p.focal, 5.5549183034);
+  EXPECT_EQ(p.kappa1, 5.1113043639e-03);
+  EXPECT_EQ(p.cx, 324.22149053);
+  EXPECT_EQ(p.cy, 282.56650051);
+  EXPECT_EQ(p.sx, 1.0937855397);
+  EXPECT_EQ(p.tx, 828.73214225);
+  EXPECT_EQ(p.ty, -3175.4796051);
+  EXPECT_EQ(p.tz, 35469.298547);
+  EXPECT_EQ(p.rx, 2.0405458695);
+  EXPECT_EQ(p.ry, -0.89337703748);
+  EXPECT_EQ(p.rz, -0.43056124791);
+}
+
+TEST(TsaiXml, EffectivePixelSpacingMayBeLeftOut) {
+  const TsaiParameters p = parseTsaiXml(
+      tsaiXml("width=\"768\" height=\"576\" ncx=\"795\" nfx=\"752\" dx=\"4.85e-3\" dy=\"4.65e-3\""),
+      "view.xml");
+  EXPECT_DOUBLE_EQ(p.dpx, 4.85e-3 * 795 / 752) << "Willson: dpx = dx * ncx / nfx";
+  EXPECT_EQ(p.dpy, 4.65e-3) << "Willson: dpy = dy";
+}
+
+TEST(TsaiXml, MissingAttributeNamesElementAttributeAndLine) {
+  const InputError error = errorOf([] {
+    parseTsaiXml(
+        tsaiXml(std::string("width=\"768\" height=\"576\" ncx=\"795\" nfx=\"752\" dx=\"4.85e-3\" "
+                            "dy=\"4.65e-3\""),
+                "kappa1=\"0\" cx=\"320\" cy=\"240\" sx=\"1\""),
+        "cam.xml");
+  });
+  EXPECT_EQ(error.file(), "cam.xml");
+  EXPECT_EQ(error.field(), "Intrinsic.focal");
+  EXPECT_EQ(error.line(), 5) << "the line where <Intrinsic> starts";
+  EXPECT_EQ(std::string(error.what()).rfind("cam.xml:5: Intrinsic.focal: ", 0), 0u) << error.what();
+  EXPECT_TRUE(says(error, "focal length")) << error.what();
+  EXPECT_TRUE(says(error, "missing")) << error.what();
+}
+
+TEST(TsaiXml, AttributeErrorsPointAtTheAttributesLine) {
+  // <Geometry> spans lines 4 to 7; dpy is on line 7 and libxml2 only knows where the tag ends.
+  const InputError error = errorOf([] {
+    parseTsaiXml(tsaiXml("width=\"768\" height=\"576\" ncx=\"795\"\n nfx=\"752\" dx=\"4.85e-3\"\n"
+                         " dpx=\"abc\" dy=\"4.65e-3\"\n dpy=\"4.65e-3\""),
+                 "cam.xml");
+  });
+  EXPECT_EQ(error.field(), "Geometry.dpx");
+  EXPECT_EQ(error.line(), 6) << error.what();
+  EXPECT_TRUE(says(error, "\"abc\" is not a number")) << error.what();
+}
+
+TEST(TsaiXml, NonFiniteValuesAreRefused) {
+  for (const std::string value : {"nan", "NaN", "inf", "-inf", "1e400"}) {
+    const InputError error = errorOf([&] {
+      parseTsaiXml(tsaiXml(std::string("width=\"768\" height=\"576\" ncx=\"795\" nfx=\"752\" "
+                                       "dx=\"4.85e-3\" dy=\"4.65e-3\""),
+                           "focal=\"5\" kappa1=\"" + value + "\" cx=\"320\" cy=\"240\" sx=\"1\""),
+                   "cam.xml");
+    });
+    EXPECT_EQ(error.field(), "Intrinsic.kappa1") << value;
+    EXPECT_EQ(error.line(), 5) << value;
+    EXPECT_TRUE(says(error, "finite")) << error.what();
+  }
+}
+
+TEST(TsaiXml, ZeroOrNegativeScalesAreRefused) {
+  const std::string geometry =
+      "width=\"768\" height=\"576\" ncx=\"795\" nfx=\"752\" dx=\"4.85e-3\" dy=\"4.65e-3\"";
+  const InputError focal = errorOf([&] {
+    parseTsaiXml(tsaiXml(geometry, "focal=\"0\" kappa1=\"0\" cx=\"320\" cy=\"240\" sx=\"1\""),
+                 "cam.xml");
+  });
+  EXPECT_EQ(focal.field(), "Intrinsic.focal");
+  EXPECT_TRUE(says(focal, "must be > 0")) << focal.what();
+
+  const InputError sx = errorOf([&] {
+    parseTsaiXml(tsaiXml(geometry, "focal=\"5\" kappa1=\"0\" cx=\"320\" cy=\"240\" sx=\"-1\""),
+                 "cam.xml");
+  });
+  EXPECT_EQ(sx.field(), "Intrinsic.sx");
+
+  const InputError width = errorOf([] {
+    parseTsaiXml(
+        tsaiXml("width=\"768.5\" height=\"576\" ncx=\"795\" nfx=\"752\" dx=\"4.85e-3\" dy=\"1\""),
+        "cam.xml");
+  });
+  EXPECT_EQ(width.field(), "Geometry.width");
+  EXPECT_TRUE(says(width, "whole number of pixels")) << width.what();
+
+  const InputError height = errorOf([] {
+    parseTsaiXml(
+        tsaiXml("width=\"768\" height=\"0\" ncx=\"795\" nfx=\"752\" dx=\"4.85e-3\" dy=\"1\""),
+        "cam.xml");
+  });
+  EXPECT_EQ(height.field(), "Geometry.height");
+}
+
+TEST(TsaiXml, InconsistentEffectivePixelSpacingNamesBothFields) {
+  const InputError error = errorOf([] {
+    parseTsaiXml(tsaiXml("width=\"768\" height=\"576\" ncx=\"795\" nfx=\"752\" dx=\"4.85e-3\" "
+                         "dy=\"4.65e-3\" dpx=\"4.85e-3\""),
+                 "cam.xml");
+  });
+  EXPECT_EQ(error.field(), "Geometry.dpx");
+  EXPECT_EQ(error.line(), 4);
+  EXPECT_TRUE(says(error, "Geometry.dx * Geometry.ncx / Geometry.nfx")) << error.what();
+
+  const InputError dpy = errorOf([] {
+    parseTsaiXml(tsaiXml("width=\"768\" height=\"576\" ncx=\"795\" nfx=\"752\" dx=\"4.85e-3\" "
+                         "dy=\"4.65e-3\" dpy=\"4.7e-3\""),
+                 "cam.xml");
+  });
+  EXPECT_EQ(dpy.field(), "Geometry.dpy");
+  EXPECT_TRUE(says(dpy, "Geometry.dy")) << dpy.what();
+
+  // Rounded to 11 significant digits, as the PETS files write it: accepted.
+  EXPECT_NO_THROW(parseTsaiXml(tsaiXml(), "cam.xml"));
+}
+
+TEST(TsaiXml, MalformedXmlGivesLibxml2sLineAndMessage) {
+  const InputError error = errorOf([] {
+    parseTsaiXml(
+        "<?xml version=\"1.0\"?>\n<Camera>\n  <Geometry width=\"1\" width=\"2\"/>\n</Camera>\n",
+        "cam.xml");
+  });
+  EXPECT_EQ(error.line(), 3);
+  EXPECT_TRUE(says(error, "not well-formed XML")) << error.what();
+  EXPECT_TRUE(says(error, "redefined")) << error.what();
+
+  const InputError truncated = errorOf([] {
+    parseTsaiXml("<?xml version=\"1.0\"?>\n<Camera>\n  <Geometry width=\"1\"", "cam.xml");
+  });
+  EXPECT_GE(truncated.line(), 3) << truncated.what();
+  EXPECT_EQ(std::string(truncated.what()).rfind("cam.xml:", 0), 0u) << truncated.what();
+}
+
+TEST(TsaiXml, MissingOrWrongElementsAreNamed) {
+  const InputError missing = errorOf([] {
+    parseTsaiXml("<?xml version=\"1.0\"?>\n<Camera>\n  <Geometry/>\n  <Intrinsic/>\n</Camera>\n",
+                 "cam.xml");
+  });
+  EXPECT_EQ(missing.field(), "Extrinsic");
+  EXPECT_EQ(missing.line(), 2);
+
+  const InputError twice = errorOf([] {
+    std::string text = tsaiXml();
+    text.insert(text.find("</Camera>"), "  <Intrinsic focal=\"1\"/>\n");
+    parseTsaiXml(text, "cam.xml");
+  });
+  EXPECT_EQ(twice.field(), "Intrinsic");
+  EXPECT_TRUE(says(twice, "appears twice (lines 8 and 12)")) << twice.what();
+
+  const InputError root = errorOf([] {
+    parseTsaiXml("<?xml version=\"1.0\"?>\n<opencv_storage>\n</opencv_storage>\n", "cam.xml");
+  });
+  EXPECT_EQ(root.line(), 2);
+  EXPECT_TRUE(says(root, "save the calibration as YAML")) << root.what();
+}
+
+TEST(TsaiXml, NeverFetchesExternalEntities) {
+  const InputError error = errorOf([] {
+    parseTsaiXml(
+        "<?xml version=\"1.0\"?>\n<!DOCTYPE Camera [<!ENTITY e SYSTEM \"file:///etc/hostname\">]>\n"
+        "<Camera name=\"&e;\"/>\n",
+        "cam.xml");
+  });
+  EXPECT_TRUE(says(error, "external entity")) << error.what();
+}
+
+// ----------------------------------------------------------------------------------------------
+// OpenCV YAML
+
+struct OpenCvFile {
+  int width = 640;
+  int height = 480;
+  cv::Mat camera_matrix = (cv::Mat_<double>(3, 3) << 812.5, 0, 331.25, 0, 808.75, 236.5, 0, 0, 1);
+  cv::Mat distortion = (cv::Mat_<double>(1, 5) << -0.28, 0.07, 1e-3, -5e-4, 0.0);
+  cv::Mat rvec = (cv::Mat_<double>(3, 1) << 2.1, -0.3, 0.25);
+  cv::Mat tvec = (cv::Mat_<double>(3, 1) << 0.4, 1.3, 3.2);
+  std::string leave_out;  // a key not to write
+
+  // Written by cv::FileStorage itself, so that the test reads the real format.
+  fs::path write(const fs::path& file) const {
+    cv::FileStorage storage(file.string(), cv::FileStorage::WRITE | cv::FileStorage::FORMAT_YAML);
+    auto put = [&](const std::string& key, const auto& value) {
+      if (key != leave_out) storage << key << value;
+    };
+    put("image_width", width);
+    put("image_height", height);
+    put("camera_matrix", camera_matrix);
+    put("distortion_coefficients", distortion);
+    put("rvec", rvec);
+    put("tvec", tvec);
+    return file;
+  }
+};
+
+TEST(OpenCvYaml, LoadsWhatCvFileStorageWrites) {
+  const TemporaryFolder folder;
+  const OpenCvFile file;
+  const OpenCvParameters p = loadOpenCvYaml(file.write(folder.file("c0.yml")));
+  EXPECT_EQ(p.width, 640);
+  EXPECT_EQ(p.height, 480);
+  EXPECT_EQ(p.fx, 812.5);
+  EXPECT_EQ(p.fy, 808.75);
+  EXPECT_EQ(p.cx, 331.25);
+  EXPECT_EQ(p.cy, 236.5);
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(p.distortion[static_cast<std::size_t>(i)], file.distortion.at<double>(i)) << i;
+  }
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(p.rvec[i], file.rvec.at<double>(i)) << i;
+    EXPECT_EQ(p.tvec[i], file.tvec.at<double>(i)) << i;
+  }
+}
+
+// What the loader builds projects as OpenCV does, on points anywhere inside the model's valid
+// radius.
+TEST(OpenCvYaml, ProjectsLikeCvProjectPoints) {
+  const TemporaryFolder folder;
+  // The realistic lens of the brief (k3 = 0: monotonic for ever) and one with a k3 that makes the
+  // polynomial turn, so that maxRadius() is finite.
+  const std::vector<std::array<double, 5>> lenses = {{-0.28, 0.07, 1e-3, -5e-4, 0.0},
+                                                     {-0.28, 0.07, 1e-3, -5e-4, -0.02}};
+  std::mt19937_64 random(20240611);
+  for (const auto& lens : lenses) {
+    OpenCvFile file;
+    file.distortion = (cv::Mat_<double>(1, 5) << lens[0], lens[1], lens[2], lens[3], lens[4]);
+    const LoadedCalibration loaded = loadCalibration(file.write(folder.file("lens.yml")));
+    ASSERT_EQ(loaded.kind, "opencv");
+    const auto& camera = dynamic_cast<const OpenCvCamera&>(*loaded.model);
+    const double limit = std::min(camera.maxRadius(), 1.5);  // 1.5: ~56 degrees off axis
+    if (lens[4] != 0.0) {
+      EXPECT_TRUE(std::isfinite(camera.maxRadius()));
+    } else {
+      EXPECT_TRUE(std::isinf(camera.maxRadius()));
+    }
+
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<cv::Point3d> world;
+    std::vector<Eigen::Vector2d> ours;
+    const Eigen::Matrix3d rotation = camera.pose().rotation;
+    const Eigen::Vector3d translation = camera.pose().translation;
+    for (int i = 0; i < 2000; ++i) {
+      // A point in camera coordinates at normalised radius below the limit, 0.5 to 20 units deep.
+      const double radius = limit * std::sqrt(unit(random)) * 0.999;
+      const double angle = 2 * std::numbers::pi * unit(random);
+      const double depth = 0.5 + 19.5 * unit(random);
+      const Eigen::Vector3d in_camera(radius * std::cos(angle) * depth,
+                                      radius * std::sin(angle) * depth, depth);
+      const Eigen::Vector3d w = rotation.transpose() * (in_camera - translation);
+      const std::optional<ImagePoint> image = camera.worldToImage(w);
+      ASSERT_TRUE(image) << "radius " << radius << " is inside maxRadius " << camera.maxRadius();
+      world.emplace_back(w.x(), w.y(), w.z());
+      ours.push_back(image->pixel);
+    }
+    std::vector<cv::Point2d> theirs;
+    cv::projectPoints(world, file.rvec, file.tvec, file.camera_matrix, file.distortion, theirs);
+    double worst = 0;
+    for (std::size_t i = 0; i < world.size(); ++i) {
+      worst = std::max(worst, std::hypot(ours[i].x() - theirs[i].x, ours[i].y() - theirs[i].y));
+    }
+    EXPECT_LT(worst, 1e-6) << "pixels apart from cv::projectPoints, k3 = " << lens[4];
+  }
+}
+
+InputError openCvError(const OpenCvFile& file) {
+  const TemporaryFolder folder;
+  const fs::path path = file.write(folder.file("bad.yml"));
+  InputError error = errorOf([&] { loadOpenCvYaml(path); });
+  EXPECT_EQ(error.file(), path.string());
+  EXPECT_EQ(std::string(error.what()).rfind(path.string() + ": " + error.field() + ": ", 0), 0u)
+      << error.what();
+  return error;
+}
+
+TEST(OpenCvYaml, MissingKeyIsNamed) {
+  for (const std::string key :
+       {"image_width", "camera_matrix", "distortion_coefficients", "tvec"}) {
+    OpenCvFile file;
+    file.leave_out = key;
+    const InputError error = openCvError(file);
+    EXPECT_EQ(error.field(), key);
+    EXPECT_TRUE(says(error, "is missing")) << error.what();
+  }
+}
+
+TEST(OpenCvYaml, NonFiniteValuesAreRefused) {
+  OpenCvFile file;
+  file.camera_matrix.at<double>(0, 2) = std::numeric_limits<double>::quiet_NaN();
+  const InputError matrix = openCvError(file);
+  EXPECT_EQ(matrix.field(), "camera_matrix");
+  EXPECT_TRUE(says(matrix, "value 2 is")) << matrix.what();
+  EXPECT_TRUE(says(matrix, "finite")) << matrix.what();
+
+  OpenCvFile far;
+  far.tvec.at<double>(2) = std::numeric_limits<double>::infinity();
+  const InputError tvec = openCvError(far);
+  EXPECT_EQ(tvec.field(), "tvec");
+  EXPECT_TRUE(says(tvec, "finite")) << tvec.what();
+}
+
+TEST(OpenCvYaml, OnlyTheFiveCoefficientModelIsSupported) {
+  OpenCvFile rational;
+  rational.distortion = (cv::Mat_<double>(1, 8) << -0.28, 0.07, 1e-3, -5e-4, 0.0, 0.01, 0.0, 0.0);
+  const InputError error = openCvError(rational);
+  EXPECT_EQ(error.field(), "distortion_coefficients");
+  EXPECT_TRUE(says(error, "8 coefficients")) << error.what();
+  EXPECT_TRUE(says(error, "only the 4/5-coefficient model")) << error.what();
+
+  OpenCvFile odd;
+  odd.distortion = (cv::Mat_<double>(1, 3) << -0.28, 0.07, 1e-3);
+  EXPECT_EQ(openCvError(odd).field(), "distortion_coefficients");
+
+  // The longer models with their extra terms zero are the 5-coefficient model exactly.
+  const TemporaryFolder folder;
+  OpenCvFile zero_extras;
+  zero_extras.distortion =
+      (cv::Mat_<double>(14, 1) << -0.28, 0.07, 1e-3, -5e-4, 0.02, 0, 0, 0, 0, 0, 0, 0, 0, 0);
+  const OpenCvParameters p = loadOpenCvYaml(zero_extras.write(folder.file("z.yml")));
+  EXPECT_EQ(p.distortion[4], 0.02);
+
+  OpenCvFile four;
+  four.distortion = (cv::Mat_<double>(4, 1) << -0.28, 0.07, 1e-3, -5e-4);
+  const OpenCvParameters p4 = loadOpenCvYaml(four.write(folder.file("four.yml")));
+  EXPECT_EQ(p4.distortion[3], -5e-4);
+  EXPECT_EQ(p4.distortion[4], 0.0) << "4 coefficients: k3 = 0";
+}
+
+TEST(OpenCvYaml, SkewAndNonIntrinsicMatricesAreRefused) {
+  OpenCvFile skewed;
+  skewed.camera_matrix.at<double>(0, 1) = 0.5;
+  const InputError skew = openCvError(skewed);
+  EXPECT_EQ(skew.field(), "camera_matrix");
+  EXPECT_TRUE(says(skew, "skew")) << skew.what();
+  EXPECT_TRUE(says(skew, "cv::projectPoints ignores skew")) << skew.what();
+
+  OpenCvFile scaled;
+  scaled.camera_matrix.at<double>(2, 2) = 2.0;
+  EXPECT_TRUE(says(openCvError(scaled), "K(2,2) = 2"));
+
+  OpenCvFile lower;
+  lower.camera_matrix.at<double>(2, 0) = 1e-3;
+  EXPECT_TRUE(says(openCvError(lower), "K(2,0)"));
+
+  OpenCvFile small;
+  small.camera_matrix = cv::Mat::eye(2, 2, CV_64F);
+  EXPECT_TRUE(says(openCvError(small), "3x3"));
+
+  OpenCvFile rvec;
+  rvec.rvec = (cv::Mat_<double>(1, 4) << 1, 2, 3, 4);
+  EXPECT_EQ(openCvError(rvec).field(), "rvec");
+}
+
+TEST(OpenCvYaml, WrongTypesAndSyntaxErrors) {
+  const InputError width =
+      errorOf([] { parseOpenCvYaml("%YAML:1.0\n---\nimage_width: 640.5\n", "c.yml"); });
+  EXPECT_EQ(width.field(), "image_width");
+  EXPECT_TRUE(says(width, "whole number")) << width.what();
+
+  const InputError syntax = errorOf(
+      [] { parseOpenCvYaml("%YAML:1.0\n---\nimage_width: 640\n  image_height: 480\n", "c.yml"); });
+  EXPECT_EQ(syntax.line(), 4) << syntax.what();
+  EXPECT_TRUE(says(syntax, "not valid YAML")) << syntax.what();
+
+  // Without the %YAML line (hand-written), lines are still the file's own.
+  const InputError shifted =
+      errorOf([] { parseOpenCvYaml("image_width: 640\nimage_height: [480,\n", "c.yaml"); });
+  EXPECT_EQ(shifted.line(), 2) << shifted.what();
+
+  const InputError list = errorOf([] { parseOpenCvYaml("%YAML:1.0\n- 1\n- 2\n", "c.yml"); });
+  EXPECT_TRUE(says(list, "top level must be a mapping")) << list.what();
+
+  const InputError empty = errorOf([] { parseOpenCvYaml("\n\n", "c.yml"); });
+  EXPECT_TRUE(says(empty, "is empty")) << empty.what();
+}
+
+TEST(OpenCvYaml, HandWrittenYamlWithoutDirectiveLoads) {
+  const OpenCvParameters p = parseOpenCvYaml(
+      "image_width: 720\nimage_height: 576\n"
+      "camera_matrix: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n"
+      "  data: [800, 0, 360, 0, 800, 288, 0, 0, 1]\n"
+      "distortion_coefficients: [-0.1, 0.01, 0, 0, 0]\n"
+      "rvec: [0.1, 0.2, 0.3]\ntvec: [1, 2, 3]\n",
+      "c.yaml");
+  EXPECT_EQ(p.width, 720);
+  EXPECT_EQ(p.fx, 800);
+  EXPECT_EQ(p.distortion[0], -0.1);
+  EXPECT_EQ(p.tvec.z(), 3);
+}
+
+// ----------------------------------------------------------------------------------------------
+// Telling the kinds apart
+
+TEST(LoadCalibration, PicksTheLoaderByContentAndTheUnitsByKind) {
+  const TemporaryFolder folder;
+  const LoadedCalibration tsai = loadCalibration(folder.write("c0.cal", "\n  " + tsaiXml()));
+  EXPECT_EQ(tsai.kind, "tsai");
+  EXPECT_EQ(tsai.units, LengthUnit::kMillimetre);
+  ASSERT_NE(dynamic_cast<const TsaiCamera*>(tsai.model.get()), nullptr);
+  EXPECT_EQ(tsai.model->width(), 768);
+
+  const LoadedCalibration opencv = loadCalibration(OpenCvFile{}.write(folder.file("c1.yml")));
+  EXPECT_EQ(opencv.kind, "opencv");
+  EXPECT_EQ(opencv.units, LengthUnit::kMetre);
+  ASSERT_NE(dynamic_cast<const OpenCvCamera*>(opencv.model.get()), nullptr);
+
+  // By content, whatever the name says; a declared unit wins over the kind's default.
+  fs::copy_file(folder.file("c1.yml"), folder.file("c1.calibration"));
+  const LoadedCalibration renamed =
+      loadCalibration(folder.file("c1.calibration"), LengthUnit::kMillimetre);
+  EXPECT_EQ(renamed.kind, "opencv");
+  EXPECT_EQ(renamed.units, LengthUnit::kMillimetre);
+
+  // A .yaml name is enough for hand-written YAML without the %YAML line.
+  const LoadedCalibration plain = loadCalibration(folder.write(
+      "c2.yaml",
+      "image_width: 720\nimage_height: 576\ncamera_matrix: [800, 0, 360, 0, 800, 288, 0, 0, 1]\n"
+      "distortion_coefficients: [0, 0, 0, 0]\nrvec: [0, 0, 0]\ntvec: [0, 0, 3]\n"));
+  EXPECT_EQ(plain.kind, "opencv");
+
+  const InputError unknown =
+      errorOf([&] { loadCalibration(folder.write("c3.txt", "f = 5\nkappa = 0\n")); });
+  EXPECT_TRUE(says(unknown, "neither a Tsai calibration")) << unknown.what();
+
+  const InputError empty = errorOf([&] { loadCalibration(folder.write("c4.xml", "  \n")); });
+  EXPECT_TRUE(says(empty, "is empty")) << empty.what();
+}
+
+TEST(LoadCalibration, MissingFileSaysWhy) {
+  const TemporaryFolder folder;
+  const fs::path file = folder.file("absent.xml");
+  const InputError error = errorOf([&] { loadCalibration(file); });
+  EXPECT_EQ(error.file(), file.string());
+  EXPECT_EQ(error.line(), 0);
+  EXPECT_EQ(std::string(error.what()),
+            file.string() + ": cannot read calibration file: No such file or directory");
+}
+
+}  // namespace
+}  // namespace occmap

@@ -1,0 +1,281 @@
+// The occmap command as a user runs it: output formats, exit codes, and maps that equal the
+// reference fusion of the same images.
+#include <cmath>
+#include <numbers>
+#include <regex>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "capture/image_file.h"
+#include "command_runner.h"
+#include "core/carve_table.h"
+#include "core/reference_fusion.h"
+#include "daemon/calibration_file.h"
+
+namespace occmap {
+namespace {
+
+using testing::runCommand;
+using testing::TemporaryFolder;
+using testing::writeText;
+
+const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
+
+// A 100x100 camera 2000 mm above (0, 0) looking straight down: one pixel is 10 mm on the floor.
+constexpr const char* kDownwardXml = R"(<?xml version="1.0" encoding="UTF-8"?>
+<Camera name="down">
+  <Geometry width="100" height="100" ncx="100" nfx="100" dx="0.01" dy="0.01" dpx="0.01" dpy="0.01"/>
+  <Intrinsic focal="2.0" kappa1="0" cx="49.5" cy="49.5" sx="1"/>
+  <Extrinsic tx="0" ty="0" tz="2000" rx="3.141592653589793" ry="0" rz="0"/>
+</Camera>
+)";
+
+double jsonNumber(const std::string& json, const std::string& key) {
+  const std::regex pattern("\"" + key + "\":([-+0-9.eE]+)");
+  std::smatch match;
+  if (!std::regex_search(json, match, pattern)) {
+    ADD_FAILURE() << "no " << key << " in " << json;
+    return std::nan("");
+  }
+  return std::stod(match[1]);
+}
+
+TEST(OccmapProject, WorldToPixelAsJsonInFullPrecision) {
+  TemporaryFolder folder;
+  writeText(folder / "down.xml", kDownwardXml);
+  const auto result =
+      runCommand({kOccmap, "project", "--calibration", (folder / "down.xml").string(), "--world",
+                  "-100", "250.5", "0", "--json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  // x -100 mm: 10 pixels left of the centre; y +250.5 mm: 25.05 pixels up (world +y is image -v).
+  EXPECT_NEAR(jsonNumber(result.out, "u"), 49.5 - 10.0, 1e-12);
+  EXPECT_NEAR(jsonNumber(result.out, "v"), 49.5 - 25.05, 1e-12);
+  EXPECT_NEAR(jsonNumber(result.out, "depth"), 2000.0, 1e-9);
+  EXPECT_EQ(result.out.front(), '{');
+  EXPECT_EQ(std::count(result.out.begin(), result.out.end(), '\n'), 1);
+  // Full double precision: 17 significant digits survive the round trip exactly.
+  const auto loaded = loadCalibration(folder / "down.xml");
+  const auto image = loaded.model->worldToImage({-100, 250.5, 0});
+  EXPECT_EQ(jsonNumber(result.out, "v"), image->pixel.y());
+}
+
+TEST(OccmapProject, PixelToPlaneAndOutsideTheImage) {
+  TemporaryFolder folder;
+  writeText(folder / "down.xml", kDownwardXml);
+  const std::string calibration = (folder / "down.xml").string();
+  auto result = runCommand({kOccmap, "project", "--calibration", calibration, "--pixel", "59.5",
+                            "49.5", "--z", "1000", "--json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NEAR(jsonNumber(result.out, "x"), 50.0, 1e-9);  // 10 pixels at 1000 mm: 5 mm each
+  EXPECT_NEAR(jsonNumber(result.out, "y"), 0.0, 1e-9);
+  EXPECT_EQ(jsonNumber(result.out, "z"), 1000.0);
+  EXPECT_NEAR(jsonNumber(result.out, "depth"), 1000.0, 1e-9);
+  // A point far outside the image still has its pixel.
+  result =
+      runCommand({kOccmap, "project", "--calibration", calibration, "--world", "5000", "0", "0"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("outside"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("u 549.5"), std::string::npos) << result.out;
+}
+
+TEST(OccmapProject, NoResultIsExitThreeWithAReason) {
+  TemporaryFolder folder;
+  writeText(folder / "down.xml", kDownwardXml);
+  const std::string calibration = (folder / "down.xml").string();
+  auto result =
+      runCommand({kOccmap, "project", "--calibration", calibration, "--world", "0", "0", "2500"});
+  EXPECT_EQ(result.exit_code, 3);
+  EXPECT_NE(result.err.find("behind the camera"), std::string::npos) << result.err;
+  EXPECT_TRUE(result.out.empty());
+  // The plane z = 2500 lies behind this downward camera for every pixel.
+  result = runCommand(
+      {kOccmap, "project", "--calibration", calibration, "--pixel", "10", "10", "--z", "2500"});
+  EXPECT_EQ(result.exit_code, 3);
+  EXPECT_NE(result.err.find("never meets the plane"), std::string::npos) << result.err;
+}
+
+TEST(OccmapProject, BadInputIsExitTwoNamingTheProblem) {
+  TemporaryFolder folder;
+  std::string broken = kDownwardXml;
+  broken.replace(broken.find("focal=\"2.0\" "), 12, "");
+  writeText(folder / "broken.xml", broken);
+  auto result = runCommand({kOccmap, "project", "--calibration", (folder / "broken.xml").string(),
+                            "--world", "0", "0", "0"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("broken.xml:4"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("Intrinsic.focal"), std::string::npos) << result.err;
+  result = runCommand({kOccmap, "project", "--calibration", (folder / "none.xml").string(),
+                       "--world", "0", "0", "0"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("none.xml"), std::string::npos) << result.err;
+  // Usage: two numbers where three are needed, or neither --world nor --pixel.
+  result = runCommand({kOccmap, "project", "--calibration", "x.xml", "--world", "1", "2"});
+  EXPECT_EQ(result.exit_code, 2);
+  result = runCommand({kOccmap, "project", "--calibration", "x.xml"});
+  EXPECT_EQ(result.exit_code, 2);
+  result = runCommand({kOccmap, "no-such-command"});
+  EXPECT_EQ(result.exit_code, 2);
+  result = runCommand({kOccmap, "project", "--help"});
+  EXPECT_EQ(result.exit_code, 0);
+  EXPECT_NE(result.out.find("Example"), std::string::npos);
+}
+
+// A files:// rig: the downward camera, a uniform background, three frames with a dark square each.
+struct FilesRig {
+  TemporaryFolder folder;
+  FilesRig() {
+    writeText(folder / "down.xml", kDownwardXml);
+    std::filesystem::create_directories(folder / "frames");
+    const cv::Mat background(100, 100, CV_8UC1, cv::Scalar(120));
+    cv::imwrite((folder / "background.png").string(), background);
+    // Natural order: frame2 comes before frame10 (plain sorting would put it last).
+    const std::pair<const char*, int> frames[] = {
+        {"frame1.png", 10}, {"frame2.png", 40}, {"frame10.png", 70}};
+    for (const auto& [name, corner] : frames) {
+      cv::Mat live = background.clone();
+      live(cv::Rect(corner, corner, 20, 20)).setTo(20);
+      // Colour on disk: converted to luminance on reading.
+      cv::Mat colour;
+      cv::cvtColor(live, colour, cv::COLOR_GRAY2BGR);
+      cv::imwrite((folder / "frames" / name).string(), colour);
+    }
+    writeText(folder / "rig.yaml",
+              R"(map: {origin_m: [-0.6, -0.6], cell_size_m: 0.04, width: 30, height: 30}
+fusion: {threshold: 25, column_height_m: 0}
+cameras:
+  - name: down
+    source: "files://frames/*.png"
+    calibration: down.xml
+    background: background.png
+)");
+  }
+};
+
+TEST(OccmapFuse, WritesOnlyMapsAndTheyEqualTheReferenceFusion) {
+  FilesRig rig;
+  const auto out = rig.folder / "maps";
+  const auto result = runCommand(
+      {kOccmap, "fuse", "--config", (rig.folder / "rig.yaml").string(), "--out", out.string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("wrote 3 maps"), std::string::npos) << result.out;
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(out)) {
+    names.push_back(entry.path().filename().string());
+  }
+  std::sort(names.begin(), names.end());
+  ASSERT_EQ(names,
+            (std::vector<std::string>{"map_000000.png", "map_000001.png", "map_000002.png"}));
+
+  // The same fusion in process, from the same files, in natural order.
+  const auto calibration = loadCalibration(rig.folder / "down.xml");
+  const Camera camera(calibration.model, calibration.units, 100, 100);
+  MapGeometry map{-0.6, -0.6, 0.04, 30, 30};
+  const CarveTable table = buildCarveTable(camera, map, 0.0);
+  std::string error;
+  const Image background = *readGreyImage(rig.folder / "background.png", error);
+  const char* frames[] = {"frame1.png", "frame2.png", "frame10.png"};
+  int occupied_seen = 0;
+  for (int k = 0; k < 3; ++k) {
+    const Image live = *readGreyImage(rig.folder / "frames" / frames[k], error);
+    const CameraFrame frame{&table, live.view(), background.view(), 25};
+    const OccupancyMap expected = fuseReference(map, std::span(&frame, 1));
+    const cv::Mat written =
+        cv::imread((out / names[static_cast<std::size_t>(k)]).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(written.type(), CV_8UC1);
+    ASSERT_EQ(written.rows, 30);
+    ASSERT_EQ(written.cols, 30);
+    for (int row = 0; row < 30; ++row) {
+      for (int column = 0; column < 30; ++column) {
+        ASSERT_EQ(written.at<std::uint8_t>(row, column), greyLevel(expected.at(row, column)))
+            << "map " << k << " cell " << row << "," << column;
+        occupied_seen += expected.at(row, column) == CellState::kOccupied ? 1 : 0;
+      }
+    }
+  }
+  EXPECT_GT(occupied_seen, 3 * 20) << "each frame's square should leave occupied cells";
+  // The camera sees 1 m x 1 m of the 1.2 m x 1.2 m map: the rim is unseen (128).
+  const cv::Mat first = cv::imread((out / names[0]).string(), cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(first.at<std::uint8_t>(0, 0), 128);
+  EXPECT_EQ(first.at<std::uint8_t>(15, 15), 0);
+}
+
+TEST(OccmapFuse, StopsAfterFramesAndGuardsItsFolder) {
+  FilesRig rig;
+  const std::string config = (rig.folder / "rig.yaml").string();
+  const auto out = rig.folder / "maps";
+  auto result =
+      runCommand({kOccmap, "fuse", "--config", config, "--out", out.string(), "--frames", "2"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(out), {}), 2);
+  // Old maps stay unless --overwrite; a folder with other files is refused outright.
+  result = runCommand({kOccmap, "fuse", "--config", config, "--out", out.string()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--overwrite"), std::string::npos) << result.err;
+  result = runCommand({kOccmap, "fuse", "--config", config, "--out", out.string(), "--overwrite"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(out), {}), 3);
+  writeText(out / "notes.txt", "mine");
+  result = runCommand({kOccmap, "fuse", "--config", config, "--out", out.string(), "--overwrite"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_TRUE(std::filesystem::exists(out / "notes.txt"));
+  EXPECT_TRUE(std::filesystem::exists(out / "map_000002.png"));
+}
+
+TEST(OccmapFuse, InvalidConfigIsExitTwoBeforeAnyWork) {
+  FilesRig rig;
+  writeText(rig.folder / "bad.yaml",
+            "map: {width: 30, height: 30}\nfusion: {treshold: 20}\ncameras: []\n");
+  const auto out = rig.folder / "maps";
+  auto result = runCommand(
+      {kOccmap, "fuse", "--config", (rig.folder / "bad.yaml").string(), "--out", out.string()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("bad.yaml:2"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("treshold"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  // A background of another size than the stream names the config line of `background`.
+  const cv::Mat small(50, 50, CV_8UC1, cv::Scalar(120));
+  cv::imwrite((rig.folder / "small.png").string(), small);
+  writeText(rig.folder / "small.yaml", R"(map: {width: 30, height: 30}
+cameras:
+  - name: down
+    source: "files://frames/*.png"
+    calibration: down.xml
+    background: small.png
+)");
+  result = runCommand(
+      {kOccmap, "fuse", "--config", (rig.folder / "small.yaml").string(), "--out", out.string()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("small.yaml:6"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("50x50"), std::string::npos) << result.err;
+}
+
+TEST(OccmapFuse, SimulatedRoomIsScoredAgainstItsGroundTruth) {
+  TemporaryFolder folder;
+  const auto result =
+      runCommand({kOccmap, "fuse", "--config", OCCMAP_SOURCE_DIR "/examples/sim-room.yaml", "--out",
+                  (folder / "maps").string(), "--frames", "3", "--snapshot",
+                  (folder / "snapshot.png").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("objects found 15 of 15"), std::string::npos) << result.out;
+  const cv::Mat picture = cv::imread((folder / "snapshot.png").string());
+  EXPECT_GT(picture.cols, 512);
+}
+
+TEST(OccmapCoverage, DrawsWhichCamerasSeeEachCell) {
+  TemporaryFolder folder;
+  const auto result =
+      runCommand({kOccmap, "coverage", "--config", OCCMAP_SOURCE_DIR "/examples/sim-room.yaml",
+                  "--out", (folder / "coverage.png").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  for (const char* name : {"c0", "c1", "c2", "c3"}) {
+    EXPECT_NE(result.out.find(name), std::string::npos) << result.out;
+  }
+  EXPECT_NE(result.out.find("by 2+:"), std::string::npos) << result.out;
+  const cv::Mat picture = cv::imread((folder / "coverage.png").string());
+  EXPECT_GE(picture.cols, 512);
+}
+
+}  // namespace
+}  // namespace occmap

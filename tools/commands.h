@@ -1,0 +1,17 @@
+#pragma once
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+namespace occmap::tools {
+
+// Each sub-command adds itself to the app and returns the function that runs it after parsing; the
+// function returns the process's exit code (daemon/exit_codes.h) or throws InputError (exit 2).
+using Command = std::function<int()>;
+
+Command addProjectCommand(CLI::App& app);
+Command addFuseCommand(CLI::App& app);
+Command addCoverageCommand(CLI::App& app);
+
+}  // namespace occmap::tools

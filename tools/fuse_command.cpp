@@ -1,0 +1,249 @@
+// occmap fuse: off-line fusion of every camera's frames, in lockstep, into one map per frame set.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <regex>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "capture/image_file.h"
+#include "core/reference_fusion.h"
+#include "daemon/config.h"
+#include "daemon/exit_codes.h"
+#include "daemon/input_error.h"
+#include "daemon/rig.h"
+#include "tools/commands.h"
+#include "tools/pictures.h"
+#include "tools/progress.h"
+
+namespace occmap::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct FuseOptions {
+  std::string config;
+  std::string out;
+  std::uint64_t frames = 0;  // 0: until the first source ends
+  bool overwrite = false;
+  std::string snapshot;
+};
+
+bool isMapFile(const fs::path& path) {
+  static const std::regex pattern(R"(map_\d{6,}\.png)");
+  return std::regex_match(path.filename().string(), pattern);
+}
+
+// The output folder holds our maps and nothing else: refuse one with other files in it, and old
+// maps unless the user said to replace them.
+void prepareOutput(const fs::path& out, bool overwrite) {
+  std::error_code error;
+  if (!fs::exists(out, error)) {
+    if (!fs::create_directories(out, error)) {
+      throw InputError(out.string(), 0, "--out",
+                       "cannot create the output folder: " + error.message());
+    }
+    return;
+  }
+  if (!fs::is_directory(out, error)) {
+    throw InputError(out.string(), 0, "--out", "is not a folder; give a new or empty folder");
+  }
+  std::vector<fs::path> old_maps;
+  for (const fs::directory_entry& entry : fs::directory_iterator(out)) {
+    if (!isMapFile(entry.path())) {
+      throw InputError(out.string(), 0, "--out",
+                       "holds other files (" + entry.path().filename().string() +
+                           "); occmap fuse writes only map_NNNNNN.png files: give a new or empty "
+                           "folder");
+    }
+    old_maps.push_back(entry.path());
+  }
+  if (!old_maps.empty() && !overwrite) {
+    throw InputError(out.string(), 0, "--out",
+                     "already holds " + std::to_string(old_maps.size()) +
+                         " maps from an earlier run; pass --overwrite to replace them, or give "
+                         "another folder");
+  }
+  for (const fs::path& map : old_maps) fs::remove(map);
+}
+
+Image mapImage(const OccupancyMap& map) {
+  Image image(map.geometry.width, map.geometry.height);
+  for (std::size_t i = 0; i < map.cells.size(); ++i) image.data()[i] = greyLevel(map.cells[i]);
+  return image;
+}
+
+// The maps against the simulator's ground truth, summed over frames.
+struct TruthScore {
+  std::uint64_t inside_cells = 0, inside_kept = 0;  // cells wholly inside objects, not free
+  std::uint64_t clear_cells = 0, clear_free = 0;    // cells a camera sees clearly, free
+  std::uint64_t objects = 0, objects_found = 0;     // objects with a non-free cell inside
+
+  void add(const OccupancyMap& map, const sim::GroundTruth& truth) {
+    for (std::size_t cell = 0; cell < map.cells.size(); ++cell) {
+      const bool free = map.cells[cell] == CellState::kFree;
+      if (truth.footprint[cell] == sim::GroundTruth::kInside) {
+        ++inside_cells;
+        inside_kept += free ? 0 : 1;
+      } else if (truth.footprint[cell] == sim::GroundTruth::kClear && truth.clear_view[cell]) {
+        ++clear_cells;
+        clear_free += free ? 1 : 0;
+      }
+    }
+    for (const std::vector<int>& cells : truth.object_cells) {
+      ++objects;
+      for (const int cell : cells) {
+        if (map.cells[static_cast<std::size_t>(cell)] != CellState::kFree) {
+          ++objects_found;
+          break;
+        }
+      }
+    }
+  }
+};
+
+double percent(std::uint64_t part, std::uint64_t whole) {
+  return whole == 0 ? 0.0 : 100.0 * static_cast<double>(part) / static_cast<double>(whole);
+}
+
+int run(const FuseOptions& o) {
+  const Config config = loadConfig(o.config);
+  const fs::path out(o.out);
+  if (!o.snapshot.empty() && fs::weakly_canonical(fs::absolute(o.snapshot)).parent_path() ==
+                                 fs::weakly_canonical(fs::absolute(out))) {
+    throw InputError(o.snapshot, 0, "--snapshot",
+                     "must not go into the maps' folder, which holds only map_NNNNNN.png files");
+  }
+  prepareOutput(out, o.overwrite);
+  Rig rig = Rig::open(config);
+  const double column_height = config.fusion.column_height_m;
+  std::vector<CarveTable> tables = rig.buildTables(column_height);
+  for (const std::string& warning : rig.warnings()) {
+    std::fprintf(stderr, "occmap fuse: warning: %s\n", warning.c_str());
+  }
+  std::vector<RigCamera>& cameras = rig.cameras();
+
+  std::optional<sim::TruthMaker> truth_maker;
+  if (rig.commonScene() != nullptr) {
+    std::vector<const sim::Renderer*> renderers;
+    for (const RigCamera& camera : cameras) renderers.push_back(&camera.sim->renderer());
+    truth_maker.emplace(renderers, config.map);
+  }
+
+  std::uint64_t total = o.frames;
+  for (const RigCamera& camera : cameras) {
+    const std::uint64_t count = camera.source->frameCount();
+    if (count > 0 && (total == 0 || count < total)) total = count;
+  }
+
+  Progress progress("fusing", total);
+  std::vector<CameraFrame> frames(cameras.size());
+  std::vector<std::pair<std::string, Image>> last_images;
+  std::optional<OccupancyMap> last_map;
+  std::uint64_t maps = 0;
+  std::uint64_t counts[3] = {0, 0, 0};
+  TruthScore score;
+  while (o.frames == 0 || maps < o.frames) {
+    bool ended = false;
+    for (std::size_t k = 0; k < cameras.size() && !ended; ++k) {
+      Frame frame;
+      const FrameSource::Status status = cameras[k].source->read(frame);
+      if (status == FrameSource::Status::kEnd) ended = true;
+      if (status == FrameSource::Status::kError) {
+        progress.finish();
+        throw InputError(config.file.string(), config.cameras[k].lineOf("source"),
+                         "cameras[" + std::to_string(k) + "].source",
+                         cameras[k].source->lastError() + " (after " + std::to_string(maps) +
+                             " maps were written)");
+      }
+      frames[k] =
+          CameraFrame{&tables[k], frame.image, cameras[k].background.view(), cameras[k].threshold};
+    }
+    if (ended) break;
+    const OccupancyMap map = fuseReference(config.map, frames);
+    char name[32];
+    std::snprintf(name, sizeof name, "map_%06llu.png", static_cast<unsigned long long>(maps));
+    std::string error;
+    if (!writeGreyPng(out / name, mapImage(map), error)) {
+      progress.finish();
+      std::fprintf(stderr, "occmap fuse: %s\n", error.c_str());
+      return kExitFailure;
+    }
+    for (const CellState state : map.cells) ++counts[static_cast<int>(state)];
+    if (truth_maker) {
+      score.add(map, truth_maker->at(
+                         cameras.front().sim->scene().objectsAt(cameras.front().sim->lastTime())));
+    }
+    if (!o.snapshot.empty()) {
+      last_images.clear();
+      for (std::size_t k = 0; k < cameras.size(); ++k) {
+        Image copy(frames[k].live.width, frames[k].live.height);
+        for (int v = 0; v < copy.height(); ++v) {
+          std::copy_n(frames[k].live.row(v), copy.width(), copy.row(v));
+        }
+        last_images.emplace_back(cameras[k].name, std::move(copy));
+      }
+      last_map = map;
+    }
+    ++maps;
+    progress.update(maps);
+  }
+  const double seconds = progress.elapsedSeconds();
+  progress.finish();
+  if (maps == 0) {
+    std::fprintf(stderr, "occmap fuse: no map written: a source had no frames\n");
+    return kExitNoResult;
+  }
+  if (last_map && !cv::imwrite(o.snapshot, snapshot(last_images, *last_map))) {
+    std::fprintf(stderr, "occmap fuse: cannot write the snapshot %s\n", o.snapshot.c_str());
+    return kExitFailure;
+  }
+  const std::uint64_t cells = maps * config.map.cellCount();
+  std::printf(
+      "wrote %llu maps (%dx%d cells of %.3g m, column height %.3g m) to %s in %.1f s "
+      "(%.1f maps/s); cells free %.1f %%, occupied %.1f %%, unseen %.1f %%\n",
+      static_cast<unsigned long long>(maps), config.map.width, config.map.height,
+      config.map.cell_size_m, column_height, out.string().c_str(), seconds,
+      static_cast<double>(maps) / seconds, percent(counts[0], cells), percent(counts[1], cells),
+      percent(counts[2], cells));
+  if (truth_maker) {
+    std::printf(
+        "against the simulator's ground truth: %.2f %% of cells under objects not free; "
+        "objects found %llu of %llu (%.2f %%); %.2f %% of cells a camera sees clearly "
+        "are free\n",
+        percent(score.inside_kept, score.inside_cells),
+        static_cast<unsigned long long>(score.objects_found),
+        static_cast<unsigned long long>(score.objects), percent(score.objects_found, score.objects),
+        percent(score.clear_free, score.clear_cells));
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+Command addFuseCommand(CLI::App& app) {
+  auto options = std::make_shared<FuseOptions>();
+  CLI::App* command = app.add_subcommand(
+      "fuse",
+      "Fuse every camera's frames off-line into maps, one per frame set.\n"
+      "Reads each camera's files:// or sim:// source in lockstep until the first one ends (or "
+      "--frames), and writes DIR/map_000000.png, map_000001.png, ... and nothing else: 8-bit grey, "
+      "0 free, 255 occupied, 128 unseen, picture row r = map row r (the floor plan mirrored top "
+      "to bottom, as the map's rows go from the smallest y).\n"
+      "With simulated cameras it also scores the maps against the scene's ground truth.\n\n"
+      "Example:\n"
+      "  occmap fuse --config examples/sim-room.yaml --out maps --frames 90");
+  command->add_option("--config", options->config, "Config file (YAML; see README)")->required();
+  command->add_option("--out", options->out, "Folder for the maps (new, or empty)")->required();
+  command->add_option("--frames", options->frames, "Stop after this many frame sets")
+      ->check(CLI::PositiveNumber);
+  command->add_flag("--overwrite", options->overwrite,
+                    "Replace the maps an earlier run left in the folder");
+  command->add_option("--snapshot", options->snapshot,
+                      "Also write a picture of the last frame set's camera images next to its "
+                      "map, drawn as a floor plan (PNG; outside the maps' folder)");
+  return [options] { return run(*options); };
+}
+
+}  // namespace occmap::tools

@@ -1,0 +1,124 @@
+// occmap project: one calibration's geometry by hand, world to pixel and pixel to world.
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include "daemon/calibration_file.h"
+#include "daemon/exit_codes.h"
+#include "tools/commands.h"
+
+namespace occmap::tools {
+namespace {
+
+struct ProjectOptions {
+  std::string calibration;
+  std::vector<double> world;
+  std::vector<double> pixel;
+  double z = 0.0;
+  bool json = false;
+};
+
+int noResult(const std::string& why) {
+  std::fprintf(stderr, "occmap project: no result: %s\n", why.c_str());
+  return kExitNoResult;
+}
+
+int run(const ProjectOptions& o) {
+  const LoadedCalibration calibration = loadCalibration(o.calibration);
+  const CameraModel& model = *calibration.model;
+  const std::string unit(unitName(calibration.units));
+  if (!o.world.empty()) {
+    const Eigen::Vector3d world(o.world[0], o.world[1], o.world[2]);
+    const std::optional<ImagePoint> image = model.worldToImage(world);
+    if (!image) {
+      const Eigen::Vector3d camera = model.pose().rotation * world + model.pose().translation;
+      if (!(camera.z() > 0)) {
+        char depth[64];
+        std::snprintf(depth, sizeof depth, "%.6g", camera.z());
+        return noResult("the point is behind the camera (depth " + std::string(depth) + " " + unit +
+                        ")");
+      }
+      return noResult(
+          "the point lies past the lens model's valid radius (where its distortion "
+          "folds back), so it has no image");
+    }
+    if (o.json) {
+      std::printf("{\"u\":%.17g,\"v\":%.17g,\"depth\":%.17g}\n", image->pixel.x(), image->pixel.y(),
+                  image->depth);
+    } else {
+      const bool inside = image->pixel.x() >= -0.5 && image->pixel.y() >= -0.5 &&
+                          image->pixel.x() < model.width() - 0.5 &&
+                          image->pixel.y() < model.height() - 0.5;
+      std::printf("u %.6f  v %.6f  depth %.6f %s  (%s the %dx%d calibration frame)\n",
+                  image->pixel.x(), image->pixel.y(), image->depth, unit.c_str(),
+                  inside ? "inside" : "outside", model.width(), model.height());
+    }
+    return kExitOk;
+  }
+  const Eigen::Vector2d pixel(o.pixel[0], o.pixel[1]);
+  if (!model.imageToRay(pixel)) {
+    return noResult(
+        "the pixel lies past the lens model's valid radius (where its distortion folds "
+        "back), so no ray belongs to it");
+  }
+  const std::optional<PlanePoint> point = model.imageToPlane(pixel, o.z);
+  if (!point) {
+    char plane[64];
+    std::snprintf(plane, sizeof plane, "%.6g", o.z);
+    return noResult("the pixel's ray never meets the plane z = " + std::string(plane) + " " + unit +
+                    " in front of the camera (for the floor: the pixel looks above the horizon)");
+  }
+  if (o.json) {
+    std::printf("{\"x\":%.17g,\"y\":%.17g,\"z\":%.17g,\"depth\":%.17g}\n", point->world.x(),
+                point->world.y(), point->world.z(), point->depth);
+  } else {
+    std::printf("x %.6f  y %.6f  z %.6f  depth %.6f %s\n", point->world.x(), point->world.y(),
+                point->world.z(), point->depth, unit.c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+Command addProjectCommand(CLI::App& app) {
+  auto options = std::make_shared<ProjectOptions>();
+  CLI::App* command = app.add_subcommand(
+      "project",
+      "Where a world point appears in a camera, or where a pixel looks on a plane.\n"
+      "Input and output are in the calibration file's own units (mm for Tsai XML, the tvec's for "
+      "OpenCV YAML); pixels are in the calibration frame, u = column, v = row, integers at pixel "
+      "centres. A point outside the image still gets its pixel. Depth is the distance along the "
+      "camera's axis.\n"
+      "No result (a point behind the camera or past the lens model's valid radius, a ray that "
+      "never meets the plane): a message on stderr and exit 3.\n\n"
+      "Examples:\n"
+      "  occmap project --calibration calib/c0.xml --world 1000 2500 0\n"
+      "  occmap project --calibration calib/c0.xml --pixel 320 400 --z 0 --json");
+  command
+      ->add_option("--calibration", options->calibration,
+                   "Tsai (ETISEO/PETS XML) or OpenCV (cv::FileStorage YAML) calibration file")
+      ->required();
+  CLI::Option* world =
+      command->add_option("--world", options->world, "World point X Y Z to project to a pixel")
+          ->expected(3);
+  CLI::Option* pixel = command
+                           ->add_option("--pixel", options->pixel,
+                                        "Pixel U V whose ray to intersect with the plane z = Z")
+                           ->expected(2);
+  command->add_option("--z", options->z, "Height of the plane for --pixel (default 0, the floor)")
+      ->needs(pixel);
+  command->add_flag(
+      "--json", options->json,
+      "Print one JSON object, {\"u\",\"v\",\"depth\"} or {\"x\",\"y\",\"z\",\"depth\"}, "
+      "in full double precision");
+  world->excludes(pixel);
+  return [options, world, pixel] {
+    if (world->count() == 0 && pixel->count() == 0) {
+      std::fprintf(stderr, "occmap project: give --world X Y Z or --pixel U V\n");
+      return kExitInvalidInput;
+    }
+    return run(*options);
+  };
+}
+
+}  // namespace occmap::tools
