@@ -3,7 +3,8 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
-#include <regex>
+#include <algorithm>
+#include <string_view>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -30,9 +31,17 @@ struct FuseOptions {
   std::string snapshot;
 };
 
+// map_ + six or more digits + .png: the names this command writes.
 bool isMapFile(const fs::path& path) {
-  static const std::regex pattern(R"(map_\d{6,}\.png)");
-  return std::regex_match(path.filename().string(), pattern);
+  const std::string name = path.filename().string();
+  constexpr std::string_view kPrefix = "map_", kSuffix = ".png";
+  if (name.size() < kPrefix.size() + 6 + kSuffix.size() || !name.starts_with(kPrefix) ||
+      !name.ends_with(kSuffix)) {
+    return false;
+  }
+  const std::string_view digits(name.data() + kPrefix.size(),
+                                name.size() - kPrefix.size() - kSuffix.size());
+  return std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
 // The output folder holds our maps and nothing else: refuse one with other files in it, and old
