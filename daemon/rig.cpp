@@ -163,7 +163,8 @@ const sim::Scene* Rig::commonScene() const {
   return scenes_.front().get();
 }
 
-std::vector<CarveTable> Rig::buildTables(double column_height_m) {
+std::vector<CarveTable> Rig::buildTables(double column_height_m,
+                                         const std::function<void(std::size_t built)>& built) {
   std::vector<CarveTable> tables;
   for (const RigCamera& camera : cameras_) {
     tables.push_back(
@@ -173,6 +174,7 @@ std::vector<CarveTable> Rig::buildTables(double column_height_m) {
                           "' sees no cell of the map: check its calibration (and "
                           "calibration_units) against the map's origin_m and size");
     }
+    if (built) built(tables.size());
   }
   return tables;
 }

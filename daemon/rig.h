@@ -1,5 +1,6 @@
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -42,7 +43,9 @@ class Rig {
 
   // Each camera's carve table for the config's map, at the given column height, in camera order.
   // Cameras that see no cell of the map are reported in warnings().
-  std::vector<CarveTable> buildTables(double column_height_m);
+  // `built` (if given) hears after each camera's table, for progress on large maps.
+  std::vector<CarveTable> buildTables(double column_height_m,
+                                      const std::function<void(std::size_t built)>& built = {});
 
  private:
   explicit Rig(Config config) : config_(std::move(config)) {}

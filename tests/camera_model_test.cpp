@@ -2,6 +2,7 @@
 // looks.
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -187,6 +188,83 @@ TEST(OpenCvCamera, StopsWhereTheRadialPolynomialStopsIncreasing) {
   EXPECT_NEAR(camera.maxRadius(), std::sqrt(1 / 0.9), 1e-12);
   p.distortion = {0.1, 0.01, 0.0, 0.0, 0.0};  // always increasing
   EXPECT_TRUE(std::isinf(OpenCvCamera(p).maxRadius()));
+}
+
+}  // namespace
+}  // namespace occmap
+
+namespace occmap {
+namespace {
+
+// An independent transcription of Willson's cal_tran.c (world_coord_to_image_coord with its r1..r9
+// and undistorted_to_distorted_sensor_coord), to hold TsaiCamera to the reference, not to itself.
+std::optional<Eigen::Vector2d> willsonWorldToImage(const TsaiParameters& cp, double xw, double yw,
+                                                   double zw) {
+  const double sa = std::sin(cp.rx), ca = std::cos(cp.rx);
+  const double sb = std::sin(cp.ry), cb = std::cos(cp.ry);
+  const double sg = std::sin(cp.rz), cg = std::cos(cp.rz);
+  const double r1 = cb * cg, r2 = cg * sa * sb - ca * sg, r3 = sa * sg + ca * cg * sb;
+  const double r4 = cb * sg, r5 = sa * sb * sg + ca * cg, r6 = ca * sb * sg - cg * sa;
+  const double r7 = -sb, r8 = cb * sa, r9 = ca * cb;
+  const double xc = r1 * xw + r2 * yw + r3 * zw + cp.tx;
+  const double yc = r4 * xw + r5 * yw + r6 * zw + cp.ty;
+  const double zc = r7 * xw + r8 * yw + r9 * zw + cp.tz;
+  if (zc <= 0) return std::nullopt;
+  const double Xu = cp.focal * xc / zc;
+  const double Yu = cp.focal * yc / zc;
+  double Xd = Xu, Yd = Yu;
+  if (!((Xu == 0 && Yu == 0) || cp.kappa1 == 0)) {
+    const double Ru = std::hypot(Xu, Yu);
+    const double c = 1 / cp.kappa1;
+    const double d = -c * Ru;
+    const double Q = c / 3;
+    const double R = -d / 2;
+    double D = Q * Q * Q + R * R;
+    double Rd;
+    if (D >= 0) {
+      D = std::sqrt(D);
+      Rd = std::cbrt(R + D) + std::cbrt(R - D);
+      if (Rd < 0) return std::nullopt;  // Willson clamps to the barrel limit here and warns
+    } else {
+      D = std::sqrt(-D);
+      const double S = std::cbrt(std::hypot(R, D));
+      const double T = std::atan2(D, R) / 3;
+      Rd = -S * std::cos(T) + std::sqrt(3.0) * S * std::sin(T);
+    }
+    const double lambda = Rd / Ru;
+    Xd = Xu * lambda;
+    Yd = Yu * lambda;
+  }
+  return Eigen::Vector2d(Xd * cp.sx / cp.dpx + cp.cx, Yd / cp.dpy + cp.cy);
+}
+
+TEST(TsaiCamera, AgreesWithWillsonsReferenceCode) {
+  std::mt19937_64 rng(1999);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  int compared = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    TsaiParameters p = straightDown(trial % 2 ? 4e-3 * (unit(rng) + 1) : -0.05 * (unit(rng) + 1.1));
+    p.rx = 2.0 + 0.6 * unit(rng);  // PETS-like poses: tilted, rolled, far from the origin
+    p.ry = 0.9 * unit(rng);
+    p.rz = 0.5 * unit(rng);
+    p.tx = 3000 * unit(rng);
+    p.ty = 3000 * unit(rng);
+    p.tz = 8000 + 5000 * unit(rng);
+    p.sx = 1.0 + 0.1 * unit(rng);
+    p.dpx = 0.01 * p.sx;
+    const TsaiCamera camera(p);
+    for (int k = 0; k < 50; ++k) {
+      const Eigen::Vector3d world(20000 * unit(rng), 20000 * unit(rng), 2000 * (unit(rng) + 1));
+      const auto ours = camera.worldToImage(world);
+      const auto reference = willsonWorldToImage(p, world.x(), world.y(), world.z());
+      ASSERT_EQ(ours.has_value(), reference.has_value()) << "trial " << trial;
+      if (!ours) continue;
+      ASSERT_NEAR((ours->pixel - *reference).norm(), 0.0, 1e-9 * (1 + reference->norm()))
+          << "trial " << trial;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 2000);
 }
 
 }  // namespace

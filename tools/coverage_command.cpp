@@ -11,6 +11,7 @@
 #include "daemon/rig.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
+#include "tools/prepared_rig.h"
 
 namespace occmap::tools {
 namespace {
@@ -26,12 +27,10 @@ int run(const CoverageOptions& o) {
   if (config.cameras.size() > 32) {
     throw InputError(o.config, 0, "cameras", "coverage draws at most 32 cameras");
   }
-  Rig rig = Rig::open(config);
-  const double column_height = o.column_height.value_or(config.fusion.column_height_m);
-  const std::vector<CarveTable> tables = rig.buildTables(column_height);
-  for (const std::string& warning : rig.warnings()) {
-    std::fprintf(stderr, "occmap coverage: warning: %s\n", warning.c_str());
-  }
+  const PreparedRig prepared = prepareRig(config, "coverage", o.column_height);
+  const Rig& rig = prepared.rig;
+  const std::vector<CarveTable>& tables = prepared.tables;
+  const double column_height = prepared.column_height_m;
   const MapGeometry& map = config.map;
   std::vector<std::uint32_t> seen_by(map.cellCount(), 0);
   for (std::size_t k = 0; k < tables.size(); ++k) {

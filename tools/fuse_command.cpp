@@ -1,9 +1,9 @@
 // occmap fuse: off-line fusion of every camera's frames, in lockstep, into one map per frame set.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <optional>
-#include <algorithm>
 #include <string_view>
 
 #include <opencv2/imgcodecs.hpp>
@@ -16,6 +16,7 @@
 #include "daemon/rig.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
+#include "tools/prepared_rig.h"
 #include "tools/progress.h"
 
 namespace occmap::tools {
@@ -125,12 +126,10 @@ int run(const FuseOptions& o) {
                      "must not go into the maps' folder, which holds only map_NNNNNN.png files");
   }
   prepareOutput(out, o.overwrite);
-  Rig rig = Rig::open(config);
-  const double column_height = config.fusion.column_height_m;
-  std::vector<CarveTable> tables = rig.buildTables(column_height);
-  for (const std::string& warning : rig.warnings()) {
-    std::fprintf(stderr, "occmap fuse: warning: %s\n", warning.c_str());
-  }
+  PreparedRig prepared = prepareRig(config, "fuse");
+  Rig& rig = prepared.rig;
+  const std::vector<CarveTable>& tables = prepared.tables;
+  const double column_height = prepared.column_height_m;
   std::vector<RigCamera>& cameras = rig.cameras();
 
   std::optional<sim::TruthMaker> truth_maker;
