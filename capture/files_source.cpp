@@ -1,7 +1,6 @@
 #include "capture/files_source.h"
 
 #include <algorithm>
-#include <chrono>
 
 #include <glob.h>
 
@@ -50,9 +49,7 @@ FrameSource::Status FilesSource::read(Frame& frame) {
   current_ = std::move(*image);
   frame.image = current_.view();
   frame.sequence = next_++;
-  frame.capture_time_us = std::chrono::duration_cast<std::chrono::microseconds>(
-                              std::chrono::system_clock::now().time_since_epoch())
-                              .count();
+  frame.capture_time_us = hostTimeMicroseconds();
   return Status::kFrame;
 }
 

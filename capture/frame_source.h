@@ -44,4 +44,7 @@ class FrameSource {
   std::string error_;
 };
 
+// The host's wall clock in microseconds since the Unix epoch, as LCM's utime has it.
+std::int64_t hostTimeMicroseconds();
+
 }  // namespace occmap

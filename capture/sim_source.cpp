@@ -1,6 +1,5 @@
 #include "capture/sim_source.h"
 
-#include <chrono>
 #include <cmath>
 
 namespace occmap {
@@ -18,9 +17,7 @@ FrameSource::Status SimSource::read(Frame& frame) {
   renderer_.render(scene_->objectsAt(last_time_), next_, current_);
   frame.image = current_.view();
   frame.sequence = next_++;
-  frame.capture_time_us = std::chrono::duration_cast<std::chrono::microseconds>(
-                              std::chrono::system_clock::now().time_since_epoch())
-                              .count();
+  frame.capture_time_us = hostTimeMicroseconds();
   return Status::kFrame;
 }
 

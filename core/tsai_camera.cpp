@@ -13,6 +13,16 @@ Pose tsaiPose(const TsaiParameters& p) {
 
 }  // namespace
 
+void TsaiParameters::setPose(const Pose& pose) {
+  const Eigen::Vector3d angles = tsaiAnglesFromRotation(pose.rotation);
+  rx = angles.x();
+  ry = angles.y();
+  rz = angles.z();
+  tx = pose.translation.x();
+  ty = pose.translation.y();
+  tz = pose.translation.z();
+}
+
 TsaiCamera::TsaiCamera(const TsaiParameters& parameters)
     : CameraModel(tsaiPose(parameters), parameters.width, parameters.height), p_(parameters) {
   if (p_.kappa1 < 0.0) {

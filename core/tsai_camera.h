@@ -23,6 +23,9 @@ struct TsaiParameters {
   double sx = 1;                  // horizontal scale factor
   double tx = 0, ty = 0, tz = 0;  // T: Xc = R Xw + T
   double rx = 0, ry = 0, rz = 0;  // R = Rz(rz) Ry(ry) Rx(rx)
+
+  // Sets R (as its three angles) and T from a pose, e.g. poseLookingAt().
+  void setPose(const Pose& pose);
 };
 
 class TsaiCamera final : public CameraModel {

@@ -11,6 +11,8 @@
 
 #include <sys/wait.h>
 
+#include "temporary_folder.h"
+
 namespace occmap::testing {
 
 struct CommandResult {
@@ -49,26 +51,6 @@ inline CommandResult runCommand(const std::vector<std::string>& arguments) {
   std::filesystem::remove(base.string() + ".err");
   return result;
 }
-
-// A fresh folder under the system's temporary folder, removed with the object.
-class TemporaryFolder {
- public:
-  TemporaryFolder() {
-    static int counter = 0;
-    path_ = std::filesystem::temp_directory_path() /
-            ("occmap-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
-    std::filesystem::remove_all(path_);
-    std::filesystem::create_directories(path_);
-  }
-  ~TemporaryFolder() { std::filesystem::remove_all(path_); }
-  TemporaryFolder(const TemporaryFolder&) = delete;
-  TemporaryFolder& operator=(const TemporaryFolder&) = delete;
-  const std::filesystem::path& path() const { return path_; }
-  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
-
- private:
-  std::filesystem::path path_;
-};
 
 inline void writeText(const std::filesystem::path& file, const std::string& text) {
   std::ofstream(file) << text;

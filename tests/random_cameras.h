@@ -28,7 +28,6 @@ inline RandomRig randomRig(std::mt19937_64& rng) {
   const Eigen::Vector3d target(position.x() + reach * std::cos(angle),
                                position.y() + reach * std::sin(angle), 0.0);
   const Pose pose = poseLookingAt(position * 1000.0, target * 1000.0);
-  const Eigen::Vector3d angles = tsaiAnglesFromRotation(pose.rotation);
   TsaiParameters p;
   p.width = integer(48, 160);
   p.height = integer(36, 120);
@@ -40,12 +39,7 @@ inline RandomRig randomRig(std::mt19937_64& rng) {
   p.kappa1 = uniform(-0.08, 0.1) / (half_diagonal * half_diagonal);
   p.cx = p.width / 2.0 + uniform(-3, 3);
   p.cy = p.height / 2.0 + uniform(-3, 3);
-  p.rx = angles.x();
-  p.ry = angles.y();
-  p.rz = angles.z();
-  p.tx = pose.translation.x();
-  p.ty = pose.translation.y();
-  p.tz = pose.translation.z();
+  p.setPose(pose);
   auto model = std::make_shared<TsaiCamera>(p);
   // The stream: the whole frame, half of it, or a crop.
   int stream_width = p.width, stream_height = p.height;

@@ -103,13 +103,7 @@ TEST(ReferenceFusion, ColumnCarvingKeepsACellWhoseColumnIsChanged) {
   p.cx = p.cy = 99.5;
   p.sx = 1;
   const Pose pose = poseLookingAt({0, -3000, 2000}, {0, 0, 0});
-  const Eigen::Vector3d angles = tsaiAnglesFromRotation(pose.rotation);
-  p.rx = angles.x();
-  p.ry = angles.y();
-  p.rz = angles.z();
-  p.tx = pose.translation.x();
-  p.ty = pose.translation.y();
-  p.tz = pose.translation.z();
+  p.setPose(pose);
   const Camera camera(std::make_shared<TsaiCamera>(p), LengthUnit::kMillimetre, 200, 200);
   MapGeometry map = smallMap();
   const CarveTable floor = buildCarveTable(camera, map, 0.0);

@@ -40,8 +40,6 @@ double unitHash(long a, long b, std::uint32_t salt) {
 SceneCamera lookAt(std::string name, const Eigen::Vector3d& position, const Eigen::Vector3d& target,
                    double focal_mm, double kappa1, double cx, double cy) {
   const Pose pose = poseLookingAt(position * 1000.0, target * 1000.0);
-  const Eigen::Vector3d angles = tsaiAnglesFromRotation(pose.rotation);
-  const Eigen::Vector3d& t = pose.translation;
   TsaiParameters p;
   p.width = 640;
   p.height = 480;
@@ -52,12 +50,7 @@ SceneCamera lookAt(std::string name, const Eigen::Vector3d& position, const Eige
   p.cx = cx;
   p.cy = cy;
   p.sx = 1.0;
-  p.rx = angles.x();
-  p.ry = angles.y();
-  p.rz = angles.z();
-  p.tx = t.x();
-  p.ty = t.y();
-  p.tz = t.z();
+  p.setPose(pose);
   return {std::move(name), p};
 }
 
