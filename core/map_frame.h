@@ -1,0 +1,37 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/map_geometry.h"
+
+namespace occmap {
+
+// A camera as the pipeline sees it.
+enum class CameraState : std::uint8_t {
+  kStarting = 0,   // opened, no frame yet
+  kStreaming = 1,  // delivering frames
+  kDown = 2,       // stopped delivering or lost: its cells count as unseen
+};
+
+// One camera's part in a map frame (occmap.camera_frame_t on the wire).
+struct CameraContribution {
+  CameraState state = CameraState::kStarting;
+  bool used = false;                 // one of its frames went into this map
+  std::int64_t sequence = -1;        // that frame's number from its source, -1 when not used
+  std::int64_t capture_time_us = 0;  // that frame's host capture time, 0 when not used
+};
+
+// One fused map with what went into it (occmap.map_frame_t on the wire). Allocated once per
+// pipeline and reused: the fusion thread fills one while the publisher sends another.
+struct MapFrame {
+  std::int64_t seq = 0;
+  std::int64_t utime = 0;  // host capture time of the newest fused frame, us since the Unix epoch
+  OccupancyMap map;
+  std::vector<CameraContribution> cameras;
+
+  MapFrame(const MapGeometry& geometry, std::size_t camera_count)
+      : map(geometry), cameras(camera_count) {}
+};
+
+}  // namespace occmap
