@@ -48,7 +48,8 @@ FrameSource::Status FilesSource::read(Frame& frame) {
   }
   current_ = std::move(*image);
   frame.image = current_.view();
-  frame.sequence = next_++;
+  frame.sequence = delivered_++;
+  ++next_;
   frame.capture_time_us = hostTimeMicroseconds();
   return Status::kFrame;
 }

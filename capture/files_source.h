@@ -18,6 +18,10 @@ class FilesSource final : public FrameSource {
   int height() const override { return height_; }
   std::uint64_t frameCount() const override { return files_.size(); }
   Status read(Frame& frame) override;
+  bool rewind() override {
+    next_ = 0;
+    return true;
+  }
   const std::vector<std::filesystem::path>& files() const { return files_; }
 
  private:
@@ -25,6 +29,7 @@ class FilesSource final : public FrameSource {
 
   std::vector<std::filesystem::path> files_;
   std::size_t next_ = 0;
+  std::uint64_t delivered_ = 0;  // frame numbers keep counting across rewinds
   int width_ = 0;
   int height_ = 0;
   Image current_;

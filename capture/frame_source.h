@@ -31,6 +31,12 @@ class FrameSource {
   // Frames this source will deliver in all, if it knows (0 = unknown or endless).
   virtual std::uint64_t frameCount() const { return 0; }
   virtual Status read(Frame& frame) = 0;
+  // A recorded or simulated source starts over from its first frame (the daemon loops them);
+  // false for a source that cannot (a live camera).
+  virtual bool rewind() { return false; }
+  // Whether read() waits for a device (a camera) rather than producing frames as fast as asked:
+  // the daemon paces the others at their configured rate.
+  virtual bool isLive() const { return false; }
   // Why the last read() failed: what and where, for a person.
   const std::string& lastError() const { return error_; }
 

@@ -12,8 +12,8 @@ SimSource::SimSource(std::shared_ptr<const sim::Scene> scene, Camera camera, int
       frame_count_(static_cast<std::uint64_t>(std::floor(scene_->durationS() * fps))) {}
 
 FrameSource::Status SimSource::read(Frame& frame) {
-  if (next_ >= frame_count_) return Status::kEnd;
-  last_time_ = static_cast<double>(next_) / fps_;
+  if (next_ - first_of_loop_ >= frame_count_) return Status::kEnd;
+  last_time_ = static_cast<double>(next_ - first_of_loop_) / fps_;
   renderer_.render(scene_->objectsAt(last_time_), next_, current_);
   frame.image = current_.view();
   frame.sequence = next_++;

@@ -18,6 +18,11 @@ class SimSource final : public FrameSource {
   int height() const override { return renderer_.camera().streamHeight(); }
   std::uint64_t frameCount() const override { return frame_count_; }
   Status read(Frame& frame) override;
+  // Starts the scripted motion over; frame numbers (and the noise they seed) keep counting.
+  bool rewind() override {
+    first_of_loop_ = next_;
+    return true;
+  }
 
   const sim::Renderer& renderer() const { return renderer_; }
   const sim::Scene& scene() const { return *scene_; }
@@ -31,6 +36,7 @@ class SimSource final : public FrameSource {
   double fps_;
   std::uint64_t frame_count_;
   std::uint64_t next_ = 0;
+  std::uint64_t first_of_loop_ = 0;
   double last_time_ = 0;
   Image current_;
 };

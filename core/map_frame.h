@@ -25,6 +25,8 @@ struct CameraContribution {
 // One fused map with what went into it (occmap.map_frame_t on the wire). Allocated once per
 // pipeline and reused: the fusion thread fills one while the publisher sends another.
 struct MapFrame {
+  // Numbered by the publisher as it sends, so that a gap a subscriber sees is a map lost on the way
+  // (fusion may make maps faster than they are sent; those are skipped, not lost).
   std::int64_t seq = 0;
   std::int64_t utime = 0;  // host capture time of the newest fused frame, us since the Unix epoch
   OccupancyMap map;

@@ -32,7 +32,9 @@ class TripleBuffer {
     read_ = middle_.exchange(read_, std::memory_order_acq_rel) & kIndex;
     return true;
   }
-  // Reader: the buffer taken last.
+  // Reader: the buffer taken last (the reader may change it: it is the reader's until the next
+  // take).
+  T& readBuffer() noexcept { return buffers_[read_]; }
   const T& readBuffer() const noexcept { return buffers_[read_]; }
 
  private:

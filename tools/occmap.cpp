@@ -27,6 +27,8 @@ int main(int argc, char** argv) {
   add(tools::addProjectCommand, "project");
   add(tools::addFuseCommand, "fuse");
   add(tools::addCoverageCommand, "coverage");
+  add(tools::addViewCommand, "view");
+  add(tools::addStatusCommand, "status");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,196 @@
+// occmapd: the occupancy-map daemon. Reads every camera, fuses each frame set into a map and
+// broadcasts it over LCM; answers status requests; runs as a systemd Type=notify service.
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <optional>
+
+#include <CLI/CLI.hpp>
+#include <poll.h>
+#include <signal.h>
+#include <sys/signalfd.h>
+#include <unistd.h>
+
+#include "daemon/config.h"
+#include "daemon/exit_codes.h"
+#include "daemon/input_error.h"
+#include "daemon/log.h"
+#include "daemon/pipeline.h"
+#include "daemon/rig.h"
+#include "daemon/service_notifier.h"
+
+namespace occmap {
+namespace {
+
+constexpr const char* kDefaultConfig = "/etc/occmap/occmapd.yaml";
+
+struct Options {
+  std::string config = kDefaultConfig;
+  bool check = false;
+};
+
+// Everything a config makes before it can run: opened cameras and carve tables. Building this can
+// take seconds (column tables on large maps); on reload the old pipeline keeps running meanwhile.
+std::unique_ptr<Pipeline> buildPipeline(const std::string& file, const PipelineOptions& options) {
+  Config config = loadConfig(file);
+  Rig rig = Rig::open(config);
+  std::vector<CarveTable> tables = rig.buildTables(config.fusion.column_height_m);
+  for (const std::string& warning : rig.warnings())
+    logLine(LogLevel::kWarning, "%s", warning.c_str());
+  std::size_t cells = 0;
+  for (const CarveTable& table : tables) cells += table.entries();
+  logLine(LogLevel::kInfo,
+          "%s: %zu cameras, map %dx%d of %.3g m cells, column %.3g m, %zu table entries",
+          file.c_str(), rig.cameras().size(), config.map.width, config.map.height,
+          config.map.cell_size_m, config.fusion.column_height_m, cells);
+  return std::make_unique<Pipeline>(std::move(rig), std::move(tables), options);
+}
+
+PipelineOptions optionsFromEnvironment(std::chrono::steady_clock::time_point start) {
+  PipelineOptions options;
+  options.daemon_start = start;
+  // Fault injection for the watchdog test only: fusion hangs after this many maps.
+  if (const char* stall = std::getenv("OCCMAP_TEST_STALL_FUSION_AFTER_MAPS")) {
+    options.stall_fusion_after_maps = std::strtoull(stall, nullptr, 10);
+  }
+  return options;
+}
+
+int run(const Options& options) {
+  const auto start = std::chrono::steady_clock::now();
+  if (options.check) {
+    const Config config = loadConfig(options.config);
+    Rig rig = Rig::open(config);
+    std::printf("%s is valid: %zu cameras, map %dx%d\n", options.config.c_str(),
+                config.cameras.size(), config.map.width, config.map.height);
+    return kExitOk;
+  }
+  // The signals this daemon acts on arrive through a signalfd in this thread; every other thread
+  // inherits the blocked mask, so none is interrupted by them.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);
+  const int signal_fd = ::signalfd(-1, &signals, SFD_CLOEXEC);
+
+  ServiceNotifier notifier;
+  const PipelineOptions pipeline_options = optionsFromEnvironment(start);
+  std::unique_ptr<Pipeline> pipeline = buildPipeline(options.config, pipeline_options);
+  pipeline->start();
+  logLine(LogLevel::kNotice, "started with %s", options.config.c_str());
+
+  // The main loop: signals, readiness, the watchdog (only while fusion makes progress), STATUS=.
+  const auto watchdog = notifier.watchdogInterval();
+  const auto tick = watchdog
+                        ? std::min<std::chrono::milliseconds>(
+                              std::chrono::duration_cast<std::chrono::milliseconds>(*watchdog / 4),
+                              std::chrono::milliseconds(500))
+                        : std::chrono::milliseconds(500);
+  bool ready = false;
+  std::uint64_t last_progress = 0;
+  auto last_status = std::chrono::steady_clock::now() - std::chrono::seconds(10);
+  for (;;) {
+    pollfd fd{signal_fd, POLLIN, 0};
+    ::poll(&fd, 1, static_cast<int>(tick.count()));
+    if (fd.revents & POLLIN) {
+      signalfd_siginfo info{};
+      if (::read(signal_fd, &info, sizeof info) == sizeof info) {
+        if (info.ssi_signo == SIGHUP) {
+          logLine(LogLevel::kNotice, "SIGHUP: reloading %s", options.config.c_str());
+          notifier.reloading();
+          pipeline->setState(DaemonState::kReloading);
+          try {
+            std::unique_ptr<Pipeline> next = buildPipeline(options.config, pipeline_options);
+            pipeline->stop();
+            pipeline = std::move(next);
+            pipeline->start();
+            ready = false;
+            logLine(LogLevel::kNotice, "reloaded %s", options.config.c_str());
+          } catch (const InputError& error) {
+            logLine(LogLevel::kError, "reload refused, the running config stays: %s", error.what());
+            pipeline->setState(DaemonState::kRunning);
+            notifier.ready();
+          } catch (const std::exception& error) {
+            logLine(LogLevel::kError, "reload failed, the running config stays: %s", error.what());
+            pipeline->setState(DaemonState::kRunning);
+            notifier.ready();
+          }
+        } else {
+          logLine(LogLevel::kNotice, "%s: stopping",
+                  info.ssi_signo == SIGTERM ? "SIGTERM" : "SIGINT");
+          notifier.stopping();
+          pipeline->setState(DaemonState::kStopping);
+          pipeline->stop();
+          logLine(LogLevel::kNotice, "stopped after %llu maps",
+                  static_cast<unsigned long long>(pipeline->mapsPublished()));
+          return kExitOk;
+        }
+      }
+    }
+    if (!ready && pipeline->camerasReportedIn()) {
+      ready = true;
+      pipeline->setState(DaemonState::kRunning);
+      notifier.ready();
+      logLine(LogLevel::kNotice, "ready: %s", pipeline->summary().c_str());
+    }
+    const std::uint64_t progress = pipeline->mapsFused();
+    if (progress != last_progress) {
+      // Fusion made a map since the last look: the daemon is alive. A stalled fusion stops these
+      // pings, and systemd restarts the service after WatchdogSec=.
+      notifier.watchdog();
+      last_progress = progress;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_status >= std::chrono::seconds(2)) {
+      notifier.status(pipeline->summary());
+      last_status = now;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace occmap
+
+int main(int argc, char** argv) {
+  using namespace occmap;
+  Options options;
+  CLI::App app(
+      "occmapd: the occupancy-map daemon (Hoover & Olsen 1999, and past it).\n"
+      "Reads every camera of the config in its own thread, fuses each frame set into a map of the "
+      "floor (FREE, OCCUPIED, UNSEEN) and broadcasts it over LCM (channel OCCMAP_MAP by default); "
+      "publishes its status every second on OCCMAP_STATUS and answers requests on "
+      "OCCMAP_STATUS_REQUEST (see `occmap status`, `occmap view`).\n\n"
+      "Signals: SIGTERM/SIGINT stop cleanly (exit 0); SIGHUP reloads the config, and an invalid "
+      "new config is reported while the old one keeps running.\n"
+      "Under systemd (Type=notify) it reports READY=1 once every camera has delivered a frame or "
+      "been marked down, STATUS= lines, WATCHDOG=1 while fusion makes progress, STOPPING=1.\n\n"
+      "Exit codes: 0 stopped cleanly or config valid (--check); 1 failed at run time; 2 invalid "
+      "config, calibration or image (the message names the file and line or field).",
+      "occmapd");
+  app.add_option("--config", options.config, "Config file (YAML)")->capture_default_str();
+  app.add_flag(
+      "--check", options.check,
+      "Validate the config (and its calibrations, images and sources) and exit: 0 valid, 2 "
+      "invalid");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return kExitInvalidInput;
+  }
+  try {
+    return run(options);
+  } catch (const InputError& e) {
+    logLine(LogLevel::kError, "%s", e.what());
+    return kExitInvalidInput;
+  } catch (const std::exception& e) {
+    logLine(LogLevel::kError, "failed: %s", e.what());
+    return kExitFailure;
+  }
+}

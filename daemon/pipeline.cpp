@@ -1,0 +1,445 @@
+#include "daemon/pipeline.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <stdexcept>
+
+#include <occmap/status_request_t.hpp>
+#include <occmap/status_t.hpp>
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "transport/lcm_bus.h"
+#include "transport/map_codec.h"
+
+namespace occmap {
+namespace {
+
+std::int64_t monotonicNs() {
+  timespec now{};
+  ::clock_gettime(CLOCK_MONOTONIC, &now);
+  return now.tv_sec * 1'000'000'000LL + now.tv_nsec;
+}
+
+std::int64_t toNs(std::chrono::nanoseconds d) { return d.count(); }
+
+void sleepUntil(std::int64_t monotonic_ns) {
+  const timespec until{static_cast<time_t>(monotonic_ns / 1'000'000'000LL),
+                       static_cast<long>(monotonic_ns % 1'000'000'000LL)};
+  while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) == EINTR) {
+  }
+}
+
+void drainEventfd(int fd) {
+  std::uint64_t count = 0;
+  [[maybe_unused]] const ssize_t got = ::read(fd, &count, sizeof count);
+}
+
+std::string hostName() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "?";
+  return name;
+}
+
+}  // namespace
+
+void Pipeline::FusionTimes::record(std::int64_t ns) {
+  const std::int64_t bin = std::min<std::int64_t>(ns / 50'000, kBins - 1);
+  bins[bin].fetch_add(1, std::memory_order_relaxed);
+}
+
+double Pipeline::FusionTimes::percentileMs(double fraction) const {
+  std::uint64_t total = 0;
+  for (const auto& bin : bins) total += bin.load(std::memory_order_relaxed);
+  if (total == 0) return 0.0;
+  const auto rank = static_cast<std::uint64_t>(fraction * static_cast<double>(total - 1));
+  std::uint64_t seen = 0;
+  for (int i = 0; i < kBins; ++i) {
+    seen += bins[i].load(std::memory_order_relaxed);
+    if (seen > rank) return (i + 0.5) * 0.05;  // the bin's middle, in ms
+  }
+  return kBins * 0.05;
+}
+
+Pipeline::Pipeline(Rig rig, std::vector<CarveTable> tables, PipelineOptions options)
+    : rig_(std::move(rig)),
+      tables_(std::move(tables)),
+      options_(std::move(options)),
+      kernel_(tables_),
+      maps_(MapFrame(rig_.config().map, rig_.cameras().size()),
+            MapFrame(rig_.config().map, rig_.cameras().size()),
+            MapFrame(rig_.config().map, rig_.cameras().size())) {
+  const std::size_t cameras = rig_.cameras().size();
+  if (tables_.size() != cameras) throw std::invalid_argument("one carve table per camera");
+  for (std::size_t k = 0; k < cameras; ++k) {
+    const FrameSource& source = *rig_.cameras()[k].source;
+    const int width = source.width();
+    const int height = source.height();
+    // Four slots: fusion holds the newest, and three leave the camera room while fusion works.
+    rings_.push_back(std::make_unique<SpscRing<CapturedFrame>>(4, [&] {
+      CapturedFrame frame;
+      frame.image = Image(width, height);
+      frame.changed.assign(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), 0);
+      return frame;
+    }));
+    counters_.push_back(std::make_unique<CameraCounters>());
+    drop_warnings_.push_back(std::make_unique<RateLimit>(std::chrono::seconds(10)));
+  }
+  held_.resize(cameras);
+  changed_.resize(cameras, nullptr);
+  fusion_wakeup_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  publish_wakeup_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (fusion_wakeup_ < 0 || publish_wakeup_ < 0) {
+    throw std::runtime_error(std::string("eventfd: ") + std::strerror(errno));
+  }
+}
+
+Pipeline::~Pipeline() {
+  stop();
+  if (fusion_wakeup_ >= 0) ::close(fusion_wakeup_);
+  if (publish_wakeup_ >= 0) ::close(publish_wakeup_);
+}
+
+void Pipeline::wake(int fd) {
+  const std::uint64_t one = 1;
+  [[maybe_unused]] const ssize_t written = ::write(fd, &one, sizeof one);
+}
+
+void Pipeline::start() {
+  if (started_) return;
+  started_ = true;
+  start_ns_ = monotonicNs();
+  last_fused_ns_ = start_ns_;
+  // The LCM thread first, so that it subscribes before the first map exists.
+  threads_.emplace_back([this] { lcmLoop(); });
+  threads_.emplace_back([this] { fusionLoop(); });
+  for (std::size_t k = 0; k < rig_.cameras().size(); ++k) {
+    threads_.emplace_back([this, k] { captureLoop(k); });
+  }
+}
+
+void Pipeline::stop() {
+  if (!started_ || stopping_.exchange(true)) {
+    for (std::thread& t : threads_) {
+      if (t.joinable()) t.join();
+    }
+    return;
+  }
+  wake(fusion_wakeup_);
+  wake(publish_wakeup_);
+  for (std::thread& t : threads_) t.join();
+  threads_.clear();
+}
+
+bool Pipeline::camerasReportedIn() const {
+  for (const auto& counters : counters_) {
+    if (counters->state.load(std::memory_order_relaxed) == CameraState::kStarting) return false;
+  }
+  return true;
+}
+
+std::string Pipeline::summary() const {
+  std::size_t streaming = 0;
+  std::uint64_t dropped = 0;
+  for (const auto& counters : counters_) {
+    streaming += counters->state.load(std::memory_order_relaxed) == CameraState::kStreaming;
+    dropped += counters->frames_dropped.load(std::memory_order_relaxed);
+  }
+  char line[200];
+  std::snprintf(line, sizeof line,
+                "%zu of %zu cameras streaming; %llu maps published; %llu frames dropped", streaming,
+                counters_.size(), static_cast<unsigned long long>(mapsPublished()),
+                static_cast<unsigned long long>(dropped));
+  return line;
+}
+
+// One camera: read (or wait for) a frame, copy it into the ring with its changed-pixel mask (the
+// paper's difference, done here while the pixels are hot), wake fusion.
+void Pipeline::captureLoop(std::size_t k) {
+  RigCamera& camera = rig_.cameras()[k];
+  FrameSource& source = *camera.source;
+  CameraCounters& counters = *counters_[k];
+  SpscRing<CapturedFrame>& ring = *rings_[k];
+  const ImageView background = camera.background.view();
+  const double fps = rig_.config().cameras[k].fps.value_or(30.0);
+  const auto period_ns = static_cast<std::int64_t>(1e9 / fps);
+  std::int64_t next_ns = monotonicNs();
+  RateLimit error_warnings(std::chrono::seconds(10));
+  while (!stopping_.load(std::memory_order_relaxed)) {
+    if (!source.isLive()) {
+      // Recorded and simulated cameras run at their configured rate, as a camera would.
+      sleepUntil(next_ns);
+      next_ns += period_ns;
+      const std::int64_t now = monotonicNs();
+      if (next_ns < now - period_ns) next_ns = now;  // fell far behind: do not burst to catch up
+    }
+    Frame frame;
+    const FrameSource::Status status = source.read(frame);
+    if (status == FrameSource::Status::kEnd) {
+      if (source.rewind()) continue;
+      break;
+    }
+    if (status == FrameSource::Status::kError) {
+      counters.frames_dropped.fetch_add(1, std::memory_order_relaxed);
+      std::uint64_t suppressed = 0;
+      if (error_warnings.allow(suppressed)) {
+        logLine(LogLevel::kWarning, "camera %s: %s (%llu more like this not shown)",
+                camera.name.c_str(), source.lastError().c_str(),
+                static_cast<unsigned long long>(suppressed));
+      }
+      continue;
+    }
+    const std::int64_t arrived_ns = monotonicNs();
+    CapturedFrame* slot = ring.writeSlot();
+    if (slot == nullptr) {
+      // Fusion is behind and holds every slot: drop the newest, count it, say so now and then.
+      counters.frames_dropped.fetch_add(1, std::memory_order_relaxed);
+      std::uint64_t suppressed = 0;
+      if (drop_warnings_[k]->allow(suppressed)) {
+        logLine(LogLevel::kWarning, "camera %s: frame dropped, fusion is behind (%llu more since)",
+                camera.name.c_str(), static_cast<unsigned long long>(suppressed));
+      }
+      continue;
+    }
+    for (int v = 0; v < frame.image.height; ++v) {
+      std::memcpy(slot->image.row(v), frame.image.row(v),
+                  static_cast<std::size_t>(frame.image.width));
+    }
+    markChangedPixels(frame.image, background, camera.threshold, slot->changed.data());
+    slot->sequence = frame.sequence;
+    slot->capture_time_us = frame.capture_time_us;
+    slot->monotonic_ns = arrived_ns;
+    ring.commitWrite();
+    counters.frames_in.fetch_add(1, std::memory_order_relaxed);
+    counters.last_capture_us.store(frame.capture_time_us, std::memory_order_relaxed);
+    counters.last_frame_ns.store(arrived_ns, std::memory_order_relaxed);
+    wake(fusion_wakeup_);
+  }
+}
+
+void Pipeline::fusionLoop() {
+  const std::int64_t max_wait_ns =
+      static_cast<std::int64_t>(rig_.config().fusion.max_wait_ms) * 1'000'000;
+  const std::int64_t down_after_ns = toNs(options_.camera_down_after);
+  const std::int64_t start_timeout_ns = toNs(options_.camera_start_timeout);
+  const std::int64_t heartbeat_ns = toNs(options_.heartbeat);
+  pollfd wakeup{fusion_wakeup_, POLLIN, 0};
+  while (!stopping_.load(std::memory_order_relaxed)) {
+    std::int64_t now = monotonicNs();
+    std::int64_t timeout_ns = set_deadline_ns_ != 0 ? set_deadline_ns_ - now : 100'000'000;
+    timeout_ns = std::clamp<std::int64_t>(timeout_ns, 0, 100'000'000);
+    ::poll(&wakeup, 1, static_cast<int>((timeout_ns + 999'999) / 1'000'000));
+    drainEventfd(fusion_wakeup_);
+    if (stopping_.load(std::memory_order_relaxed)) break;
+    now = monotonicNs();
+    bool any_fresh = false;
+    bool all_fresh = true;
+    for (std::size_t k = 0; k < rings_.size(); ++k) {
+      // Keep only the newest frame of each ring; older ones were overtaken before fusion got them.
+      SpscRing<CapturedFrame>& ring = *rings_[k];
+      Held& held = held_[k];
+      const std::size_t waiting = ring.size();
+      const std::size_t newer = held.frame != nullptr ? waiting - 1 : waiting;
+      if (newer > 0) {
+        if (held.frame != nullptr) ring.pop();
+        for (std::size_t i = 1; i < newer; ++i) ring.pop();
+        held.frame = ring.front();
+        held.fresh = true;
+      }
+      // The camera's state follows from the age of its newest frame.
+      CameraCounters& counters = *counters_[k];
+      const std::int64_t last = counters.last_frame_ns.load(std::memory_order_relaxed);
+      CameraState state = CameraState::kStreaming;
+      if (last == 0) {
+        state = now - start_ns_ > start_timeout_ns ? CameraState::kDown : CameraState::kStarting;
+      } else if (now - last > down_after_ns) {
+        state = CameraState::kDown;
+      }
+      if (counters.state.exchange(state, std::memory_order_relaxed) != state &&
+          state == CameraState::kDown) {
+        logLine(LogLevel::kWarning, "camera %s is down: no frame for %.1f s",
+                rig_.cameras()[k].name.c_str(),
+                static_cast<double>(now - (last == 0 ? start_ns_ : last)) / 1e9);
+      }
+      any_fresh = any_fresh || held.fresh;
+      if (state != CameraState::kDown && !held.fresh) all_fresh = false;
+    }
+    if (any_fresh && set_deadline_ns_ == 0) set_deadline_ns_ = now + max_wait_ns;
+    const bool set_complete = any_fresh && (all_fresh || now >= set_deadline_ns_);
+    if (set_complete || now - last_fused_ns_ >= heartbeat_ns) fuse(now);
+  }
+}
+
+void Pipeline::fuse(std::int64_t now) {
+  if (options_.stall_fusion_after_maps != 0 &&
+      maps_fused_.load(std::memory_order_relaxed) >= options_.stall_fusion_after_maps) {
+    // Injected fault: fusion hangs (until stop), as a deadlock or a stuck device call would.
+    while (!stopping_.load(std::memory_order_relaxed)) sleepUntil(monotonicNs() + 10'000'000);
+    return;
+  }
+  const std::int64_t down_after_ns = toNs(options_.camera_down_after);
+  MapFrame& out = maps_.writeBuffer();
+  std::int64_t newest = 0;
+  for (std::size_t k = 0; k < held_.size(); ++k) {
+    Held& held = held_[k];
+    const CameraState state = counters_[k]->state.load(std::memory_order_relaxed);
+    // The newest frame of each live camera; one that is late for this set still counts with its
+    // previous frame as long as that is recent (a down camera's cells turn unseen instead).
+    const bool used = held.frame != nullptr && state != CameraState::kDown &&
+                      now - held.frame->monotonic_ns <= down_after_ns;
+    changed_[k] = used ? held.frame->changed.data() : nullptr;
+    out.cameras[k] =
+        CameraContribution{state, used, used ? static_cast<std::int64_t>(held.frame->sequence) : -1,
+                           used ? held.frame->capture_time_us : 0};
+    if (used) newest = std::max(newest, held.frame->capture_time_us);
+    held.fresh = false;
+  }
+  const std::int64_t began = monotonicNs();
+  kernel_.fuse(changed_, out.map.cells);
+  fusion_times_.record(monotonicNs() - began);
+  out.utime = newest != 0 ? newest : hostTimeMicroseconds();
+  maps_.publish();
+  wake(publish_wakeup_);
+  set_deadline_ns_ = 0;
+  last_fused_ns_ = now;
+  maps_fused_.fetch_add(1, std::memory_order_relaxed);
+}
+
+// The one thread that owns the LCM handle: publishes maps as fusion makes them, answers status
+// requests, publishes the status every status_period.
+void Pipeline::lcmLoop() {
+  const Config& config = rig_.config();
+  const TransportSettings& transport = config.transport;
+  LcmBus bus(transport.lcm_url);
+  if (!bus.good()) {
+    logLine(LogLevel::kError, "cannot open LCM at %s; no maps will be published",
+            transport.lcm_url.c_str());
+  }
+  std::vector<std::string> names;
+  for (const RigCamera& camera : rig_.cameras()) names.push_back(camera.name);
+  MapEncoder encoder(config.map, names, parseMapEncoding(transport.encoding).value());
+
+  // Requests are only queued here (bounded); answers go out below at a bounded rate.
+  constexpr std::size_t kMaxPending = 16;
+  std::int64_t pending[kMaxPending] = {};
+  std::size_t pending_count = 0;
+  std::uint64_t requests_ignored = 0;
+  bus.subscribe(statusRequestChannel(transport.status_channel),
+                [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+                  occmap::status_request_t request{};
+                  if (request.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size) ||
+                      pending_count == kMaxPending) {
+                    ++requests_ignored;
+                    return;
+                  }
+                  pending[pending_count++] = request.request_id;
+                });
+  for (const auto& [channel, handler] : options_.subscriptions) {
+    bus.subscribe(channel, [handler](const std::uint8_t* data, std::size_t size, std::int64_t) {
+      handler(data, size);
+    });
+  }
+
+  const std::string host = hostName();
+  const std::int64_t status_period_ns = toNs(options_.status_period);
+  const std::int64_t daemon_start_ns =
+      toNs(options_.daemon_start.time_since_epoch());  // steady_clock is CLOCK_MONOTONIC
+  std::int64_t next_status_ns = monotonicNs();
+  std::int64_t last_status_ns = next_status_ns;
+  std::uint64_t last_published = 0;
+  std::vector<std::uint64_t> last_frames(counters_.size(), 0);
+  double answer_tokens = options_.max_status_answers_per_s;
+  std::int64_t last_token_ns = next_status_ns;
+  std::vector<std::uint8_t> status_buffer;
+  occmap::status_t status;
+  std::int64_t next_seq = 0;
+
+  auto publishStatus = [&](std::int64_t request_id, std::int64_t now) {
+    const double window_s = std::max(1e-3, static_cast<double>(now - last_status_ns) / 1e9);
+    status.utime = hostTimeMicroseconds();
+    status.request_id = request_id;
+    status.hostname = host;
+    status.config_file = config.file.string();
+    status.state = static_cast<std::int8_t>(state_.load(std::memory_order_relaxed));
+    status.uptime_s = static_cast<double>(now - daemon_start_ns) / 1e9;
+    const std::uint64_t published = maps_published_.load(std::memory_order_relaxed);
+    status.maps_published = static_cast<std::int64_t>(published);
+    status.publish_errors =
+        static_cast<std::int64_t>(publish_errors_.load(std::memory_order_relaxed));
+    status.maps_per_s = static_cast<double>(published - last_published) / window_s;
+    status.fusion_p50_ms = fusion_times_.percentileMs(0.50);
+    status.fusion_p99_ms = fusion_times_.percentileMs(0.99);
+    status.num_cameras = static_cast<std::int16_t>(counters_.size());
+    status.cameras.resize(counters_.size());
+    for (std::size_t k = 0; k < counters_.size(); ++k) {
+      const CameraCounters& c = *counters_[k];
+      occmap::camera_status_t& s = status.cameras[k];
+      const std::uint64_t frames = c.frames_in.load(std::memory_order_relaxed);
+      s.name = rig_.cameras()[k].name;
+      s.source = config.cameras[k].source;
+      s.state = static_cast<std::int8_t>(c.state.load(std::memory_order_relaxed));
+      s.frames_in = static_cast<std::int64_t>(frames);
+      s.frames_dropped =
+          static_cast<std::int64_t>(c.frames_dropped.load(std::memory_order_relaxed));
+      s.fps = static_cast<double>(frames - last_frames[k]) / window_s;
+      s.last_capture_utime = c.last_capture_us.load(std::memory_order_relaxed);
+      if (request_id < 0) last_frames[k] = frames;
+    }
+    if (request_id < 0) {
+      last_published = published;
+      last_status_ns = now;
+    }
+    status_buffer.resize(static_cast<std::size_t>(status.getEncodedSize()));
+    status.encode(status_buffer.data(), 0, static_cast<int>(status_buffer.size()));
+    if (!bus.publish(transport.status_channel, status_buffer)) {
+      publish_errors_.fetch_add(1, std::memory_order_relaxed);
+    }
+  };
+
+  pollfd fds[2] = {{publish_wakeup_, POLLIN, 0}, {bus.good() ? bus.fileno() : -1, POLLIN, 0}};
+  while (!stopping_.load(std::memory_order_relaxed)) {
+    std::int64_t now = monotonicNs();
+    const std::int64_t timeout_ns = std::clamp<std::int64_t>(next_status_ns - now, 0, 100'000'000);
+    ::poll(fds, 2, static_cast<int>((timeout_ns + 999'999) / 1'000'000));
+    if (fds[0].revents & POLLIN) drainEventfd(publish_wakeup_);
+    if (maps_.takeLatest()) {
+      MapFrame& map = maps_.readBuffer();
+      map.seq = next_seq++;
+      const std::span<const std::uint8_t> message = encoder.encode(map);
+      if (bus.good() && !message.empty() && bus.publish(transport.map_channel, message)) {
+        maps_published_.fetch_add(1, std::memory_order_relaxed);
+      } else {
+        publish_errors_.fetch_add(1, std::memory_order_relaxed);
+      }
+    }
+    if (bus.good() && (fds[1].revents & POLLIN)) bus.handleTimeout(0);
+    now = monotonicNs();
+    answer_tokens = std::min(options_.max_status_answers_per_s,
+                             answer_tokens + static_cast<double>(now - last_token_ns) / 1e9 *
+                                                 options_.max_status_answers_per_s);
+    last_token_ns = now;
+    std::size_t answered = 0;
+    while (answered < pending_count && answer_tokens >= 1.0) {
+      publishStatus(pending[answered++], now);
+      answer_tokens -= 1.0;
+    }
+    // Requests beyond the rate wait for tokens; the queue's bound sheds a flood.
+    std::copy(pending + answered, pending + pending_count, pending);
+    pending_count -= answered;
+    if (now >= next_status_ns) {
+      publishStatus(-1, now);
+      next_status_ns = now + status_period_ns;
+    }
+  }
+  // A last status that says the daemon is stopping.
+  publishStatus(-1, monotonicNs());
+  if (requests_ignored > 0) {
+    logLine(LogLevel::kInfo, "%llu malformed or excess status requests were ignored",
+            static_cast<unsigned long long>(requests_ignored));
+  }
+}
+
+}  // namespace occmap

@@ -1,0 +1,140 @@
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "core/carve_table.h"
+#include "core/fusion_kernel.h"
+#include "core/map_frame.h"
+#include "core/spsc_ring.h"
+#include "core/triple_buffer.h"
+#include "daemon/log.h"
+#include "daemon/rig.h"
+
+namespace occmap {
+
+// What the daemon as a whole is doing, for status_t.state.
+enum class DaemonState : std::uint8_t {
+  kStarting = 0,
+  kRunning = 1,
+  kReloading = 2,
+  kStopping = 3
+};
+
+struct PipelineOptions {
+  std::chrono::steady_clock::time_point daemon_start = std::chrono::steady_clock::now();
+  std::chrono::milliseconds status_period{1000};
+  // A streaming camera without a frame for this long is down (its cells become unseen).
+  std::chrono::milliseconds camera_down_after{1000};
+  // A camera that has not delivered its first frame this long after start is down.
+  std::chrono::milliseconds camera_start_timeout{3000};
+  // With no new frame set for this long, fusion still makes a map (cameras down: all unseen), so
+  // that subscribers and the watchdog see the daemon alive.
+  std::chrono::milliseconds heartbeat{1000};
+  // Status requests answered at most this often (a flood must not take the map's bandwidth).
+  double max_status_answers_per_s = 20.0;
+  // Test hooks: extra LCM subscriptions, registered in the LCM thread (their handlers run there).
+  using Handler = std::function<void(const std::uint8_t* data, std::size_t size)>;
+  std::vector<std::pair<std::string, Handler>> subscriptions;
+  // Fault injection for tests of the watchdog: fusion hangs after this many maps (0 = never).
+  std::uint64_t stall_fusion_after_maps = 0;
+};
+
+// The live daemon's data path (ARCHITECTURE.md, "Threads and data flow"):
+//   one capture thread per camera -> a lock-free SPSC ring per camera -> the fusion thread ->
+//   a triple-buffered map -> the LCM thread (publishes maps and status, answers requests).
+// Everything on that path is allocated before start(); it then takes no locks, allocates nothing
+// and logs only through rate limits.
+class Pipeline {
+ public:
+  // Takes the opened rig and one carve table per camera (same order).
+  Pipeline(Rig rig, std::vector<CarveTable> tables, PipelineOptions options = {});
+  ~Pipeline();
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
+  void start();
+  // Stops and joins every thread; idempotent. Returns within a frame period or so.
+  void stop();
+
+  // For the main thread (any thread may call these).
+  std::uint64_t mapsFused() const { return maps_fused_.load(std::memory_order_relaxed); }
+  std::uint64_t mapsPublished() const { return maps_published_.load(std::memory_order_relaxed); }
+  // Every camera has delivered a frame or been marked down: the daemon may say READY.
+  bool camerasReportedIn() const;
+  // One line for systemd's STATUS=: maps/s, cameras streaming, drops.
+  std::string summary() const;
+  void setState(DaemonState state) { state_.store(state, std::memory_order_relaxed); }
+  const Config& config() const { return rig_.config(); }
+
+ private:
+  struct CapturedFrame {
+    Image image;
+    std::vector<std::uint8_t> changed;  // 1 = changed (markChangedPixels)
+    std::uint64_t sequence = 0;
+    std::int64_t capture_time_us = 0;
+    std::int64_t monotonic_ns = 0;
+  };
+  // Shared between a capture thread (writer), the fusion thread and the LCM thread (readers).
+  struct alignas(64) CameraCounters {
+    std::atomic<std::uint64_t> frames_in{0};
+    std::atomic<std::uint64_t> frames_dropped{0};
+    std::atomic<std::int64_t> last_capture_us{0};
+    std::atomic<std::int64_t> last_frame_ns{0};  // monotonic; 0 before the first frame
+    std::atomic<CameraState> state{CameraState::kStarting};
+  };
+  // Fusion time histogram: one writer (fusion), one reader (status).
+  struct FusionTimes {
+    static constexpr int kBins = 2000;  // 50 us each, up to 100 ms; the last bin holds the rest
+    std::atomic<std::uint32_t> bins[kBins] = {};
+    void record(std::int64_t ns);
+    double percentileMs(double fraction) const;
+  };
+
+  void captureLoop(std::size_t camera);
+  void fusionLoop();
+  void lcmLoop();
+  void fuse(std::int64_t now_ns);
+  void wake(int eventfd);
+
+  Rig rig_;
+  std::vector<CarveTable> tables_;
+  PipelineOptions options_;
+  FusionKernel kernel_;
+  std::vector<std::unique_ptr<SpscRing<CapturedFrame>>> rings_;
+  std::vector<std::unique_ptr<CameraCounters>> counters_;
+  std::vector<std::unique_ptr<RateLimit>> drop_warnings_;
+  TripleBuffer<MapFrame> maps_;
+  FusionTimes fusion_times_;
+
+  // Fusion thread state: the newest frame held from each ring, and whether it is new since the
+  // last map.
+  struct Held {
+    CapturedFrame* frame = nullptr;
+    bool fresh = false;
+  };
+  std::vector<Held> held_;
+  std::vector<const std::uint8_t*> changed_;
+  std::int64_t set_deadline_ns_ = 0;  // 0: no frame set open
+  std::int64_t last_fused_ns_ = 0;
+  std::int64_t start_ns_ = 0;
+
+  std::atomic<bool> stopping_{false};
+  std::atomic<std::uint64_t> maps_fused_{0};
+  std::atomic<std::uint64_t> maps_published_{0};
+  std::atomic<std::uint64_t> publish_errors_{0};
+  std::atomic<DaemonState> state_{DaemonState::kStarting};
+  int fusion_wakeup_ = -1;   // eventfd: capture threads -> fusion
+  int publish_wakeup_ = -1;  // eventfd: fusion -> LCM thread
+  std::vector<std::thread> threads_;
+  bool started_ = false;
+};
+
+}  // namespace occmap

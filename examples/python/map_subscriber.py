@@ -1,0 +1,406 @@
+#!/usr/bin/env python3
+"""Print every occupancy map occmapd broadcasts: seq, size, occupied/free/unseen shares, cameras.
+
+A starting point for programs that use occmap's maps. It needs the Python classes that
+`lcm-gen -p` makes from lcmtypes/*.lcm (the build puts them in build/lcmtypes/python): give that
+folder with --types, or put it on PYTHONPATH.
+
+Where the maps come from:
+  * the network (LCM's UDP multicast, the URL occmapd publishes to). With LCM's own Python module
+    (`import lcm`) when it is installed; otherwise with the small receiver below, which speaks LCM's
+    UDP multicast protocol itself (Debian has no Python module for LCM);
+  * or an lcm-logger log file (--log FILE).
+
+Maps may be raw or zstd-compressed (occmapd's transport.encoding); zstd needs the `zstandard`
+module (Debian: python3-zstandard) or the `zstd` module.
+
+Exit codes: 0 at least one map decoded; 1 failed (a file could not be read); 2 bad arguments or the
+types not found; 3 no map (none in the log, or none within --timeout).
+"""
+
+import argparse
+import os
+import re
+import select
+import socket
+import struct
+import sys
+import time
+import urllib.parse
+from io import BytesIO
+
+DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
+MAX_SIDE = 8192  # the largest map side occmap's decoders accept
+FREE, OCCUPIED, UNSEEN = 0, 1, 2
+ENCODING_RAW, ENCODING_ZSTD = 0, 1
+
+
+def parse_arguments():
+    parser = argparse.ArgumentParser(
+        description="Print every occmap map frame: seq, size, occupied/free/unseen shares and the "
+        "cameras used.",
+        epilog="Examples:\n"
+        "  %(prog)s --types build/lcmtypes/python\n"
+        "  PYTHONPATH=build/lcmtypes/python %(prog)s --count 100\n"
+        "  %(prog)s --types build/lcmtypes/python --log lcmlog-2024-05-01.00\n",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--types", metavar="DIR",
+                        help="folder holding the occmap/ package that lcm-gen -p made "
+                        "(build/lcmtypes/python); default: found on PYTHONPATH")
+    parser.add_argument("--lcm-url", default=os.environ.get("LCM_DEFAULT_URL") or DEFAULT_URL,
+                        help="LCM URL to listen on (default: $LCM_DEFAULT_URL, else %(default)s)")
+    parser.add_argument("--channel", default="OCCMAP_MAP",
+                        help="map channel, a regular expression as in LCM (default %(default)s)")
+    parser.add_argument("--log", metavar="FILE", help="read this lcm-logger log instead")
+    parser.add_argument("--count", type=int, default=0, help="stop after this many maps")
+    parser.add_argument("--timeout", type=float, default=0,
+                        help="stop after this many seconds without a map (0: wait for ever)")
+    parser.add_argument("--receiver", choices=["auto", "lcm", "builtin"], default="auto",
+                        help="LCM's Python module, this file's own UDP multicast receiver, or the "
+                        "first that works (default)")
+    arguments = parser.parse_args()
+    if arguments.count < 0 or arguments.timeout < 0:
+        parser.error("--count and --timeout must not be negative")
+    return arguments
+
+
+def import_map_type(types_folder):
+    if types_folder:
+        if not os.path.isdir(os.path.join(types_folder, "occmap")):
+            print("map_subscriber: --types %s: no occmap/ package there (it is what "
+                  "`lcm-gen -p --ppath DIR lcmtypes/*.lcm` makes; the build puts it in "
+                  "build/lcmtypes/python)" % types_folder, file=sys.stderr)
+            sys.exit(2)
+        sys.path.insert(0, os.path.abspath(types_folder))
+    try:
+        from occmap import map_frame_t
+    except ImportError as error:
+        print("map_subscriber: cannot import occmap.map_frame_t (%s): give --types "
+              "build/lcmtypes/python or put that folder on PYTHONPATH" % error, file=sys.stderr)
+        sys.exit(2)
+    return map_frame_t
+
+
+def zstd_content_size(frame):
+    """The content size a zstd frame's header declares (RFC 8878, 3.1.1), or None if it has none.
+
+    Checked before decompressing, so that a frame that lies cannot make us allocate more than the
+    map it belongs to."""
+    if len(frame) < 5 or frame[:4] != b"\x28\xb5\x2f\xfd":
+        raise ValueError("the data is not a zstd frame")
+    descriptor = frame[4]
+    size_flag, single_segment, dictionary_flag = descriptor >> 6, descriptor >> 5 & 1, descriptor & 3
+    at = 5 + (0 if single_segment else 1) + (0, 1, 2, 4)[dictionary_flag]
+    field = (1 if single_segment else 0, 2, 4, 8)[size_flag]
+    if field == 0:
+        return None
+    if len(frame) < at + field:
+        raise ValueError("the zstd frame header is truncated")
+    size = int.from_bytes(frame[at:at + field], "little")
+    return size + 256 if field == 2 else size
+
+
+def zstd_decompressor():
+    """A function (data) -> bytes, or None when no zstd module is installed."""
+    try:
+        import zstandard
+
+        decompressor = zstandard.ZstdDecompressor()
+        return decompressor.decompress
+    except ImportError:
+        pass
+    try:
+        import zstd
+
+        return zstd.decompress
+    except ImportError:
+        return None
+
+
+class MapDecoder:
+    """map_frame_t bytes -> a dict, checking every size; ValueError says what is wrong."""
+
+    def __init__(self, map_frame_t):
+        self.map_frame_t = map_frame_t
+        self.decompress = zstd_decompressor()
+
+    def decode(self, data):
+        buffer = BytesIO(data)
+        try:
+            message = self.map_frame_t.decode(buffer)
+        except (ValueError, struct.error) as error:
+            raise ValueError("not a map_frame_t, or truncated (%s)" % error)
+        if len(message.data) != message.data_size or buffer.tell() != len(data):
+            raise ValueError("its sizes do not add up to the %d bytes received" % len(data))
+        width, height = message.width, message.height
+        if not (1 <= width <= MAX_SIDE and 1 <= height <= MAX_SIDE):
+            raise ValueError("a map of %d x %d cells" % (width, height))
+        cells = width * height
+        if message.encoding == ENCODING_RAW:
+            grid = bytes(message.data)
+        elif message.encoding == ENCODING_ZSTD:
+            if self.decompress is None:
+                raise ValueError("a zstd map, and neither the zstandard nor the zstd module is "
+                                 "installed (Debian: apt install python3-zstandard)")
+            data = bytes(message.data)
+            declared = zstd_content_size(data)
+            if declared != cells:
+                raise ValueError("the zstd frame declares %s bytes, width * height is %d" %
+                                 ("no size" if declared is None else declared, cells))
+            try:
+                grid = self.decompress(data)
+            except Exception as error:  # each zstd module has its own error type
+                raise ValueError("zstd: %s" % error)
+        else:
+            raise ValueError("unknown encoding %d" % message.encoding)
+        if len(grid) != cells:
+            raise ValueError("%d bytes of cells for a %d x %d map" % (len(grid), width, height))
+        counts = [grid.count(bytes([value])) for value in (FREE, OCCUPIED, UNSEEN)]
+        if sum(counts) != cells:
+            raise ValueError("cell values other than 0 free, 1 occupied, 2 unseen")
+        return {
+            "seq": message.seq,
+            "utime": message.utime,
+            "width": width,
+            "height": height,
+            "encoding": "raw" if message.encoding == ENCODING_RAW else "zstd",
+            "bytes": len(data),
+            "free": counts[FREE] / cells,
+            "occupied": counts[OCCUPIED] / cells,
+            "unseen": counts[UNSEEN] / cells,
+            "cameras": [camera.name for camera in message.cameras],
+            "used": [camera.name for camera in message.cameras if camera.used],
+            "cells": grid,  # row-major, row 0 = smallest y; grid[r * width + c]
+        }
+
+
+def read_log(path):
+    """(channel, data, utime) of each event of an LCM log file (LCM's format, big-endian)."""
+    sync_word = 0xEDA1DA01
+    header = struct.Struct(">IqqII")  # sync, event number, utime, channel length, data length
+    with open(path, "rb") as log:
+        while True:
+            start = log.tell()
+            raw = log.read(header.size)
+            if not raw:
+                return
+            if len(raw) < header.size:
+                print("map_subscriber: %s ends inside an event header" % path, file=sys.stderr)
+                return
+            sync, _, utime, channel_length, data_length = header.unpack(raw)
+            if sync != sync_word:  # damaged: look for the next event, as LCM's reader does
+                log.seek(start + 1)
+                if not _seek_sync(log, sync_word):
+                    return
+                continue
+            channel = log.read(channel_length)
+            data = log.read(data_length)
+            if len(channel) != channel_length or len(data) != data_length:
+                print("map_subscriber: %s ends inside an event" % path, file=sys.stderr)
+                return
+            yield channel.decode("utf-8", "replace"), data, utime
+
+
+def _seek_sync(log, sync_word):
+    pattern = struct.pack(">I", sync_word)
+    while True:
+        position = log.tell()
+        block = log.read(1 << 16)
+        if len(block) < 4:
+            return False
+        found = block.find(pattern)
+        if found >= 0:
+            log.seek(position + found)
+            return True
+        log.seek(position + len(block) - 3)
+
+
+class UdpmReceiver:
+    """LCM's UDP multicast protocol, receiving side, for when LCM's Python module is missing.
+
+    A message fits one datagram ("LC02": magic, sequence number, channel NUL-terminated, payload)
+    or comes in fragments ("LC03": magic, message sequence number, message size, fragment offset,
+    fragment number, fragment count; fragment 0 carries the channel before its part of the
+    payload). All fields are big-endian. Fragments of one message are put together per sender.
+    """
+
+    SHORT, LONG = 0x4C433032, 0x4C433033
+    MAX_MESSAGE = 1 << 28  # LCM_MAX_MESSAGE_SIZE
+
+    def __init__(self, url):
+        parts = urllib.parse.urlsplit(url)
+        if parts.scheme != "udpm":
+            raise ValueError("the built-in receiver speaks udpm:// only, not %s" % url)
+        self.group = parts.hostname or "239.255.76.67"
+        self.port = parts.port or 7667
+        options = urllib.parse.parse_qs(parts.query)
+        self.socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM, socket.IPPROTO_UDP)
+        # Several LCM programs on one host share the port, as LCM's own sockets do.
+        self.socket.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        if "recv_buf_size" in options:
+            self.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF,
+                                   int(options["recv_buf_size"][0]))
+        self.socket.bind(("", self.port))
+        membership = struct.pack("4s4s", socket.inet_aton(self.group), socket.inet_aton("0.0.0.0"))
+        self.socket.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, membership)
+        self.partial = {}  # sender -> [message seqno, channel, bytearray, fragments seen, count]
+
+    def receive(self, timeout):
+        """The next whole message as (channel, data), or None after `timeout` seconds."""
+        end = None if timeout is None else time.monotonic() + timeout
+        while True:
+            wait = None if end is None else max(0.0, end - time.monotonic())
+            if not select.select([self.socket], [], [], wait)[0]:
+                return None
+            packet, sender = self.socket.recvfrom(65536)
+            message = self._take(packet, sender)
+            if message is not None:
+                return message
+
+    def _take(self, packet, sender):
+        if len(packet) < 8:
+            return None
+        magic = struct.unpack_from(">I", packet)[0]
+        if magic == self.SHORT:
+            end = packet.find(b"\0", 8)
+            if end < 0:
+                return None
+            return packet[8:end].decode("utf-8", "replace"), packet[end + 1:]
+        if magic != self.LONG or len(packet) < 20:
+            return None
+        seqno, size, offset, number, count = struct.unpack_from(">IIIHH", packet, 4)
+        payload = packet[20:]
+        channel = None
+        if number == 0:
+            end = payload.find(b"\0")
+            if end < 0:
+                return None
+            channel, payload = payload[:end].decode("utf-8", "replace"), payload[end + 1:]
+        if size > self.MAX_MESSAGE or count == 0 or number >= count or offset + len(payload) > size:
+            return None
+        entry = self.partial.get(sender)
+        if entry is None or entry[0] != seqno or len(entry[2]) != size:
+            # A new message from this sender: whatever was missing of the last one is lost.
+            entry = [seqno, None, bytearray(size), set(), count]
+            self.partial[sender] = entry
+        if channel is not None:
+            entry[1] = channel
+        entry[2][offset:offset + len(payload)] = payload
+        entry[3].add(number)
+        if len(entry[3]) == entry[4] and entry[1] is not None:
+            del self.partial[sender]
+            return entry[1], bytes(entry[2])
+        return None
+
+
+def network_messages(url, channel, receiver, timeout):
+    """Yields (channel, data) from the network; None when `timeout` passed without a message."""
+    pattern = re.compile(channel)
+    if receiver in ("auto", "lcm"):
+        try:
+            import lcm
+        except ImportError:
+            if receiver == "lcm":
+                print("map_subscriber: --receiver lcm: LCM's Python module is not installed",
+                      file=sys.stderr)
+                sys.exit(2)
+        else:
+            print("receiver: LCM's Python module", flush=True)
+            yield from _lcm_module_messages(lcm, url, channel, timeout)
+            return
+    print("receiver: built-in LCM UDP multicast receiver", flush=True)
+    try:
+        udpm = UdpmReceiver(url)
+    except ValueError as error:
+        print("map_subscriber: --lcm-url: %s" % error, file=sys.stderr)
+        sys.exit(2)
+    except OSError as error:
+        print("map_subscriber: cannot listen on %s: %s" % (url, error), file=sys.stderr)
+        sys.exit(1)
+    print("listening for maps on %s at %s" % (channel, url), flush=True)
+    last = time.monotonic()
+    while True:
+        wait = None
+        if timeout:
+            wait = timeout - (time.monotonic() - last)
+            if wait <= 0:
+                yield None
+                last = time.monotonic()
+                continue
+        message = udpm.receive(wait)
+        if message is not None and pattern.fullmatch(message[0]):
+            last = time.monotonic()
+            yield message
+
+
+def _lcm_module_messages(lcm, url, channel, timeout):
+    connection = lcm.LCM(url)
+    queue = []
+    connection.subscribe(channel, lambda name, data: queue.append((name, data)))
+    print("listening for maps on %s at %s" % (channel, url), flush=True)
+    while True:
+        if not queue and connection.handle_timeout(int(1000 * (timeout or 1))) <= 0:
+            if timeout:
+                yield None
+            continue
+        while queue:
+            yield queue.pop(0)
+
+
+def main():
+    arguments = parse_arguments()
+    decoder = MapDecoder(import_map_type(arguments.types))
+    maps = undecodable = other = lost = 0
+    last_seq = None
+
+    def show(data):
+        nonlocal maps, undecodable, lost, last_seq
+        try:
+            frame = decoder.decode(data)
+        except ValueError as error:
+            undecodable += 1
+            print("undecodable message (%d bytes): %s" % (len(data), error), flush=True)
+            return
+        maps += 1
+        if last_seq is not None and frame["seq"] > last_seq + 1:
+            lost += frame["seq"] - last_seq - 1
+        last_seq = frame["seq"]
+        print("seq %d  %dx%d %s %d bytes  occupied %.2f %%  free %.2f %%  unseen %.2f %%  "
+              "cameras used %d of %d: %s" %
+              (frame["seq"], frame["width"], frame["height"], frame["encoding"], frame["bytes"],
+               100 * frame["occupied"], 100 * frame["free"], 100 * frame["unseen"],
+               len(frame["used"]), len(frame["cameras"]), ",".join(frame["used"]) or "-"),
+              flush=True)
+
+    if arguments.log:
+        pattern = re.compile(arguments.channel)
+        try:
+            for channel, data, _ in read_log(arguments.log):
+                if not pattern.fullmatch(channel):
+                    other += 1
+                    continue
+                show(data)
+                if arguments.count and maps >= arguments.count:
+                    break
+        except OSError as error:
+            print("map_subscriber: cannot read %s: %s" % (arguments.log, error), file=sys.stderr)
+            return 1
+    else:
+        try:
+            for message in network_messages(arguments.lcm_url, arguments.channel,
+                                             arguments.receiver, arguments.timeout):
+                if message is None:
+                    print("no map for %g s" % arguments.timeout, file=sys.stderr)
+                    break
+                show(message[1])
+                if arguments.count and maps >= arguments.count:
+                    break
+        except KeyboardInterrupt:
+            pass
+    print("maps %d, lost %d (seq gaps), undecodable %d, other channels %d" %
+          (maps, lost, undecodable, other), flush=True)
+    return 0 if maps > 0 else 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())

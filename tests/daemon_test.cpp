@@ -1,0 +1,112 @@
+// occmapd as systemd runs it: --check, sd_notify (READY, STATUS, WATCHDOG only while fusion makes
+// progress, STOPPING), a clean stop within 1 s, SIGHUP with a valid and an invalid config.
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "daemon_process.h"
+#include "notify_listener.h"
+
+namespace occmap {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::DaemonProcess;
+using testing::NotifyListener;
+using testing::runCommand;
+using testing::TemporaryFolder;
+
+const std::string kOccmapd = OCCMAP_BINARY_DIR "/daemon/occmapd";
+
+TEST(Occmapd, CheckSaysValidOrNamesTheProblem) {
+  TemporaryFolder folder;
+  const auto good = folder.write("good.yaml", testing::simRoomConfig());
+  auto result = runCommand({kOccmapd, "--check", "--config", good.string()});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("valid"), std::string::npos) << result.out;
+  const auto bad = folder.write("bad.yaml", testing::simRoomConfig() + "colour: blue\n");
+  result = runCommand({kOccmapd, "--check", "--config", bad.string()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("bad.yaml:9"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("colour"), std::string::npos) << result.err;
+  result = runCommand({kOccmapd, "--check", "--config", (folder / "absent.yaml").string()});
+  EXPECT_EQ(result.exit_code, 2);
+}
+
+TEST(Occmapd, TellsSystemdReadyStatusWatchdogAndStoppingAndStopsWithinOneSecond) {
+  TemporaryFolder folder;
+  const auto config = folder.write("room.yaml", testing::simRoomConfig());
+  NotifyListener systemd(folder / "notify");
+  DaemonProcess daemon({kOccmapd, "--config", config.string()},
+                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}},
+                       folder / "stderr");
+  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.log();
+  systemd.collect(3s);
+  EXPECT_GE(systemd.count("WATCHDOG=1"), 4u) << "pings every 0.5 s while fusion makes maps";
+  EXPECT_GE(systemd.count("STATUS="), 1u);
+  const auto stop = std::chrono::steady_clock::now();
+  daemon.signal(SIGTERM);
+  const auto code = daemon.waitExit(3s);
+  const auto took = std::chrono::steady_clock::now() - stop;
+  ASSERT_TRUE(code) << "still running 3 s after SIGTERM";
+  EXPECT_EQ(*code, 0) << daemon.log();
+  EXPECT_LT(took, 1s) << "a clean stop takes under a second";
+  systemd.collect(200ms);
+  EXPECT_EQ(systemd.count("STOPPING=1"), 1u);
+  EXPECT_NE(daemon.log().find("stopped after"), std::string::npos) << daemon.log();
+}
+
+TEST(Occmapd, AStalledFusionStopsTheWatchdogPings) {
+  TemporaryFolder folder;
+  const auto config = folder.write("room.yaml", testing::simRoomConfig());
+  NotifyListener systemd(folder / "notify");
+  DaemonProcess daemon({kOccmapd, "--config", config.string()},
+                       {{"NOTIFY_SOCKET", systemd.path().string()},
+                        {"WATCHDOG_USEC", "1000000"},
+                        {"OCCMAP_TEST_STALL_FUSION_AFTER_MAPS", "40"}},
+                       folder / "stderr");
+  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.log();
+  systemd.collect(5s);
+  std::vector<std::chrono::steady_clock::time_point> pings;
+  for (const auto& message : systemd.messages()) {
+    if (message.text.find("WATCHDOG=1") != std::string::npos) pings.push_back(message.when);
+  }
+  ASSERT_GE(pings.size(), 1u) << "it pinged while fusion made its first 40 maps";
+  // 40 maps take about 1.3 s at 30 fps; after that no more pings, however long we listen.
+  EXPECT_GT(std::chrono::steady_clock::now() - pings.back(), 2500ms)
+      << "the watchdog kept being pinged although fusion stalled";
+  EXPECT_TRUE(daemon.running());
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.waitExit(3s), 0);
+}
+
+TEST(Occmapd, ReloadsOnSighupAndKeepsTheOldConfigWhenTheNewOneIsInvalid) {
+  TemporaryFolder folder;
+  const auto config = folder.write("room.yaml", testing::simRoomConfig());
+  NotifyListener systemd(folder / "notify");
+  DaemonProcess daemon({kOccmapd, "--config", config.string()},
+                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}},
+                       folder / "stderr");
+  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.log();
+  // A broken config: reported, and the daemon goes on with the old one.
+  folder.write("room.yaml", testing::simRoomConfig() + "fusion_typo: {}\n");
+  daemon.signal(SIGHUP);
+  ASSERT_TRUE(systemd.collect(10s, "READY=1")) << daemon.log();
+  EXPECT_EQ(systemd.count("RELOADING=1"), 1u);
+  EXPECT_NE(daemon.log().find("reload refused"), std::string::npos) << daemon.log();
+  EXPECT_NE(daemon.log().find("fusion_typo"), std::string::npos) << daemon.log();
+  const std::size_t pings_before = systemd.count("WATCHDOG=1");
+  systemd.collect(1500ms);
+  EXPECT_GT(systemd.count("WATCHDOG=1"), pings_before) << "fusion must go on with the old config";
+  // A valid new config: applied.
+  folder.write("room.yaml", testing::simRoomConfig("memq://", ", max_wait_ms: 20"));
+  daemon.signal(SIGHUP);
+  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.log();
+  EXPECT_NE(daemon.log().find("reloaded"), std::string::npos) << daemon.log();
+  EXPECT_TRUE(daemon.running());
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.waitExit(3s), 0) << daemon.log();
+}
+
+}  // namespace
+}  // namespace occmap

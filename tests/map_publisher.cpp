@@ -1,0 +1,160 @@
+// map_publisher: a stand-in for occmapd's LCM side in the transport tests. It publishes scene maps
+// (tests/map_scenes.h) through MapEncoder and LcmBus at a steady rate, can leave sequence numbers
+// out and send undecodable messages first (to test what receivers count), and can answer status
+// requests as the daemon would.
+#include <chrono>
+#include <cstdio>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <occmap/status_request_t.hpp>
+#include <occmap/status_t.hpp>
+
+#include "map_scenes.h"
+#include "transport/lcm_bus.h"
+#include "transport/map_codec.h"
+
+namespace {
+
+using namespace occmap;
+
+std::int64_t nowUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+struct Options {
+  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string channel = "OCCMAP_MAP";
+  std::string status_channel = "OCCMAP_STATUS";
+  int count = 60;
+  double rate = 30;
+  std::string encoding = "zstd";
+  int width = 512;
+  int height = 512;
+  int cameras = 4;
+  std::int64_t first_seq = 0;
+  std::vector<std::int64_t> drop;
+  int garbage = 0;
+  double answer_status = 0;
+};
+
+// Answers status requests for `seconds` with a made-up daemon of two cameras.
+int answerStatus(LcmBus& bus, const Options& o) {
+  int answered = 0;
+  std::vector<std::uint8_t> buffer;
+  bus.subscribe(statusRequestChannel(o.status_channel),
+                [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+                  occmap::status_request_t request{};
+                  if (request.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
+                    return;
+                  }
+                  occmap::status_t status{};
+                  status.utime = nowUtime();
+                  status.request_id = request.request_id;
+                  status.hostname = "test-host";
+                  status.config_file = "/etc/occmap/test.yaml";
+                  status.state = occmap::status_t::STATE_RUNNING;
+                  status.uptime_s = 3723.5;
+                  status.maps_published = 111683;
+                  status.publish_errors = 2;
+                  status.maps_per_s = 29.97;
+                  status.fusion_p50_ms = 3.25;
+                  status.fusion_p99_ms = 7.5;
+                  const char* names[] = {"c0", "door-camera"};
+                  for (int k = 0; k < 2; ++k) {
+                    occmap::camera_status_t camera{};
+                    camera.name = names[k];
+                    camera.source = "sim://room/c" + std::to_string(k);
+                    camera.state = static_cast<std::int8_t>(k == 0 ? 1 : 2);
+                    camera.frames_in = 111700 - 5000 * k;
+                    camera.frames_dropped = 3 * k;
+                    camera.fps = k == 0 ? 30.0 : 0.0;
+                    camera.last_capture_utime = status.utime - (k == 0 ? 12'000 : 4'200'000);
+                    status.cameras.push_back(camera);
+                  }
+                  status.num_cameras = 2;
+                  buffer.resize(static_cast<std::size_t>(status.getEncodedSize()));
+                  status.encode(buffer.data(), 0, static_cast<int>(buffer.size()));
+                  if (bus.publish(o.status_channel, buffer)) ++answered;
+                });
+  std::printf("answering status requests on %s\n", statusRequestChannel(o.status_channel).c_str());
+  std::fflush(stdout);
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double>(o.answer_status));
+  while (std::chrono::steady_clock::now() < end) bus.handleTimeout(50);
+  std::printf("answered %d status requests\n", answered);
+  return 0;
+}
+
+int publishMaps(LcmBus& bus, const Options& o) {
+  const MapGeometry geometry{-0.5, -1.5, 0.02, o.width, o.height};
+  const auto names = testing::sceneCameraNames(static_cast<std::size_t>(o.cameras));
+  MapEncoder encoder(geometry, names, parseMapEncoding(o.encoding).value());
+  MapFrame frame(geometry, names.size());
+  for (int g = 0; g < o.garbage; ++g) {
+    const std::vector<std::uint8_t> garbage(100, static_cast<std::uint8_t>(g + 1));
+    bus.publish(o.channel, garbage);
+  }
+  const std::set<std::int64_t> drop(o.drop.begin(), o.drop.end());
+  const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(1.0 / o.rate));
+  auto next = std::chrono::steady_clock::now();
+  int published = 0, failed = 0;
+  std::size_t largest = 0;
+  for (int n = 0; n < o.count; ++n) {
+    const std::int64_t seq = o.first_seq + n;
+    std::this_thread::sleep_until(next);
+    next += period;
+    if (drop.count(seq) != 0) continue;
+    testing::fillScene(frame, seq);
+    // As the daemon's: the newest camera frame was captured just before the map was made.
+    frame.utime = nowUtime();
+    for (CameraContribution& camera : frame.cameras) {
+      if (camera.used) camera.capture_time_us = frame.utime - 2000;
+    }
+    const auto message = encoder.encode(frame);
+    largest = std::max(largest, message.size());
+    if (!message.empty() && bus.publish(o.channel, message)) {
+      ++published;
+    } else {
+      ++failed;
+    }
+  }
+  std::printf("published %d maps (%s, %d x %d, largest message %zu bytes), %d failed\n", published,
+              o.encoding.c_str(), o.width, o.height, largest, failed);
+  return failed == 0 ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app("Publishes test maps (and answers status requests) over LCM", "map_publisher");
+  app.add_option("--lcm-url", o.lcm_url);
+  app.add_option("--channel", o.channel);
+  app.add_option("--status-channel", o.status_channel);
+  app.add_option("--count", o.count);
+  app.add_option("--rate", o.rate, "Maps per second")->check(CLI::PositiveNumber);
+  app.add_option("--encoding", o.encoding)->check(CLI::IsMember({"raw", "zstd"}));
+  app.add_option("--width", o.width);
+  app.add_option("--height", o.height);
+  app.add_option("--cameras", o.cameras);
+  app.add_option("--first-seq", o.first_seq);
+  app.add_option("--drop", o.drop, "Sequence numbers not to send");
+  app.add_option("--garbage", o.garbage, "Undecodable messages to send before the maps");
+  app.add_option("--answer-status", o.answer_status,
+                 "Instead of maps, answer status requests for this many seconds");
+  CLI11_PARSE(app, argc, argv);
+  LcmBus bus(o.lcm_url);
+  if (!bus.good()) {
+    std::fprintf(stderr, "map_publisher: cannot open LCM at %s\n", o.lcm_url.c_str());
+    return 1;
+  }
+  return o.answer_status > 0 ? answerStatus(bus, o) : publishMaps(bus, o);
+}

@@ -1,0 +1,251 @@
+// The Python example (examples/python/map_subscriber.py), run as a user would with Debian's
+// python3: it decodes every map of an LCM log written by LCM's own C++ API (raw and zstd, with
+// other channels and a damaged message in between), and every map a live publisher sends over UDP
+// multicast, in single datagrams and in fragments.
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+#include <occmap/status_t.hpp>
+
+#include "child_process.h"
+#include "command_runner.h"
+#include "map_scenes.h"
+#include "network_namespace.h"
+#include "temporary_folder.h"
+#include "transport/map_codec.h"
+
+namespace occmap {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::CellShares;
+using testing::ChildProcess;
+using testing::runCommand;
+using testing::TemporaryFolder;
+
+// Debian's python, where apt puts python3-zstandard (the PATH's python3 may be another one).
+const std::string kPython = "/usr/bin/python3";
+const std::string kScript = OCCMAP_SOURCE_DIR "/examples/python/map_subscriber.py";
+const std::string kTypes = OCCMAP_BINARY_DIR "/lcmtypes/python";
+const std::string kPublisher = OCCMAP_BINARY_DIR "/tests/map_publisher";
+
+// Why the example cannot run here, or "".
+std::string missingPython() {
+  if (!std::filesystem::exists(kPython))
+    return kPython + " is missing (Debian: apt install python3)";
+  const auto result = runCommand({kPython, "-c", "import zstandard"});
+  if (result.exit_code != 0) {
+    return kPython + " has no zstandard module (Debian: apt install python3-zstandard)";
+  }
+  return "";
+}
+
+// What the script printed for one map.
+struct PrintedMap {
+  std::string line;
+  double occupied = -1, free = -1, unseen = -1;
+  std::string used;
+};
+
+std::map<std::int64_t, PrintedMap> printedMaps(const std::string& out) {
+  std::map<std::int64_t, PrintedMap> maps;
+  std::istringstream lines(out);
+  std::string line;
+  while (std::getline(lines, line)) {
+    if (!line.starts_with("seq ")) continue;
+    PrintedMap printed;
+    printed.line = line;
+    const auto number = [&](const std::string& label) {
+      const std::size_t at = line.find(label);
+      return at == std::string::npos ? -1.0 : std::stod(line.substr(at + label.size()));
+    };
+    printed.occupied = number("occupied ");
+    printed.free = number("free ");
+    printed.unseen = number("unseen ");
+    printed.used = line.substr(line.rfind(": ") + 2);
+    maps[std::stoll(line.substr(4))] = printed;
+  }
+  return maps;
+}
+
+// A map the script must have printed with these shares (to its two decimals) and cameras.
+void expectPrinted(const std::map<std::int64_t, PrintedMap>& printed, const MapFrame& frame,
+                   const std::vector<std::string>& names) {
+  const auto found = printed.find(frame.seq);
+  ASSERT_NE(found, printed.end()) << "no line for seq " << frame.seq;
+  const CellShares shares = testing::cellShares(frame.map.cells);
+  EXPECT_NEAR(found->second.occupied, 100 * shares.occupied, 0.0051) << found->second.line;
+  EXPECT_NEAR(found->second.free, 100 * shares.free, 0.0051) << found->second.line;
+  EXPECT_NEAR(found->second.unseen, 100 * shares.unseen, 0.0051) << found->second.line;
+  std::string used;
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    if (frame.cameras[k].used) used += (used.empty() ? "" : ",") + names[k];
+  }
+  EXPECT_EQ(found->second.used, used.empty() ? "-" : used) << found->second.line;
+}
+
+class LogWriter {
+ public:
+  explicit LogWriter(const std::filesystem::path& file) : log_(file.string(), "w") {
+    EXPECT_TRUE(log_.good()) << "cannot write " << file;
+  }
+  void write(const std::string& channel, std::span<const std::uint8_t> data) {
+    lcm::LogEvent event{};
+    event.timestamp = utime_ += 33'333;
+    event.channel = channel;
+    event.datalen = static_cast<std::int32_t>(data.size());
+    event.data = const_cast<std::uint8_t*>(data.data());
+    ASSERT_EQ(log_.writeEvent(&event), 0);
+  }
+
+ private:
+  lcm::LogFile log_;
+  std::int64_t utime_ = 1'700'000'000'000'000;
+};
+
+TEST(PythonExample, DecodesEveryMapOfAnLcmLog) {
+  if (const std::string why = missingPython(); !why.empty()) GTEST_SKIP() << why;
+  ASSERT_TRUE(std::filesystem::exists(kTypes + "/occmap/map_frame_t.py"))
+      << "the build did not make the Python types in " << kTypes;
+  TemporaryFolder folder;
+  const auto log_file = folder / "maps.lcmlog";
+  std::vector<MapFrame> frames;
+  std::vector<std::vector<std::string>> names;
+  {
+    LogWriter log(log_file);
+    const auto add = [&](const MapGeometry& geometry, std::size_t cameras, MapEncoding encoding,
+                         std::int64_t seq) {
+      names.push_back(testing::sceneCameraNames(cameras));
+      frames.emplace_back(geometry, cameras);
+      frames.back().utime = 1'700'000'000'000'000 + seq;
+      testing::fillScene(frames.back(), seq);
+      MapEncoder encoder(geometry, names.back(), encoding);
+      log.write("OCCMAP_MAP", encoder.encode(frames.back()));
+    };
+    for (std::int64_t seq = 0; seq < 4; ++seq) add({0, 0, 0.05, 64, 48}, 2, MapEncoding::kRaw, seq);
+    occmap::status_t status{};
+    status.request_id = -1;
+    status.hostname = "somewhere";
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(status.getEncodedSize()));
+    status.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    log.write("OCCMAP_STATUS", bytes);
+    for (std::int64_t seq = 4; seq < 8; ++seq) {
+      add({-0.5, -1.5, 0.02, 512, 512}, 4, MapEncoding::kZstd, seq);
+    }
+    // A map cut short: the script must say so and go on.
+    MapEncoder encoder({0, 0, 0.05, 64, 48}, testing::sceneCameraNames(2), MapEncoding::kZstd);
+    MapFrame cut({0, 0, 0.05, 64, 48}, 2);
+    const auto whole = encoder.encode(cut);
+    log.write("OCCMAP_MAP", whole.first(whole.size() - 5));
+    // seq 8 never came.
+    for (std::int64_t seq = 9; seq < 11; ++seq) {
+      add({1, 2, 0.1, 100, 80}, 3, MapEncoding::kZstd, seq);
+    }
+  }
+  const std::string summary = "maps 10, lost 1 (seq gaps), undecodable 1, other channels 1";
+  // The types given with --types ...
+  auto result = runCommand({kPython, kScript, "--types", kTypes, "--log", log_file.string()});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  EXPECT_NE(result.out.find(summary), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("undecodable message"), std::string::npos) << result.out;
+  const auto printed = printedMaps(result.out);
+  EXPECT_EQ(printed.size(), frames.size()) << result.out;
+  for (std::size_t i = 0; i < frames.size(); ++i) expectPrinted(printed, frames[i], names[i]);
+  EXPECT_NE(printed.at(0).line.find("64x48 raw"), std::string::npos) << printed.at(0).line;
+  EXPECT_NE(printed.at(5).line.find("512x512 zstd"), std::string::npos) << printed.at(5).line;
+
+  // ... or found on PYTHONPATH.
+  result = runCommand(
+      {"/usr/bin/env", "PYTHONPATH=" + kTypes, kPython, kScript, "--log", log_file.string()});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  EXPECT_NE(result.out.find(summary), std::string::npos) << result.out;
+  // --count stops early.
+  result =
+      runCommand({kPython, kScript, "--types", kTypes, "--log", log_file.string(), "--count", "3"});
+  EXPECT_EQ(printedMaps(result.out).size(), 3u) << result.out;
+
+  // Without the types it says where to get them.
+  result = runCommand(
+      {"/usr/bin/env", "-u", "PYTHONPATH", kPython, kScript, "--log", log_file.string()});
+  EXPECT_EQ(result.exit_code, 2) << result.out << result.err;
+  EXPECT_NE(result.err.find("give --types build/lcmtypes/python or put that folder on PYTHONPATH"),
+            std::string::npos)
+      << result.err;
+  // A log without maps: exit 3.
+  {
+    LogWriter empty(folder / "empty.lcmlog");
+    const std::vector<std::uint8_t> bytes = {1, 2, 3};
+    empty.write("OTHER", bytes);
+  }
+  result = runCommand(
+      {kPython, kScript, "--types", kTypes, "--log", (folder / "empty.lcmlog").string()});
+  EXPECT_EQ(result.exit_code, 3) << result.out << result.err;
+}
+
+class PythonExampleLive : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (const std::string why = missingPython(); !why.empty()) GTEST_SKIP() << why;
+    const std::string& problem = testing::enterPrivateNetwork();
+    if (!problem.empty()) GTEST_SKIP() << problem;
+  }
+
+  // Runs the script on the network while the publisher runs each of `runs`; returns its output.
+  std::string receive(const std::string& url, int maps,
+                      const std::vector<std::vector<std::string>>& runs) {
+    ChildProcess script({kPython, kScript, "--types", kTypes, "--lcm-url", url, "--count",
+                         std::to_string(maps), "--timeout", "15"},
+                        folder_ / "script");
+    EXPECT_TRUE(script.waitForOutput("listening for maps", 10s)) << script.out() << script.err();
+    for (std::vector<std::string> run : runs) {
+      run.insert(run.begin(), kPublisher);
+      run.insert(run.end(), {"--lcm-url", url});
+      const auto result = runCommand(run);
+      EXPECT_EQ(result.exit_code, 0) << result.out << result.err;
+    }
+    const auto code = script.waitExit(20s);
+    EXPECT_EQ(code, std::optional<int>(0)) << script.out() << script.err();
+    return script.out();
+  }
+
+  TemporaryFolder folder_;
+};
+
+// Single datagrams (zstd, 512 x 512) and fragments (raw 256 x 256: 65 669 bytes, two fragments).
+TEST_F(PythonExampleLive, ReceivesMapsInDatagramsAndFragments) {
+  const std::string out = receive("udpm://239.255.76.67:7667?ttl=0", 20,
+                                  {{"--count", "10", "--rate", "30"},
+                                   {"--count", "10", "--rate", "20", "--encoding", "raw", "--width",
+                                    "256", "--height", "256", "--first-seq", "10"}});
+  std::printf("%s", out.substr(0, out.find('\n') + 1).c_str());  // which receiver it used
+  EXPECT_NE(out.find("maps 20, lost 0 (seq gaps), undecodable 0"), std::string::npos) << out;
+  const auto printed = printedMaps(out);
+  for (std::int64_t seq = 0; seq < 20; ++seq) {
+    MapFrame frame(MapGeometry{-0.5, -1.5, 0.02, seq < 10 ? 512 : 256, seq < 10 ? 512 : 256}, 4);
+    testing::fillScene(frame, seq);
+    expectPrinted(printed, frame, testing::sceneCameraNames(4));
+  }
+}
+
+// 512 x 512 raw maps: 262 307 bytes in five fragments, which need a receive buffer larger than
+// Linux's default (net.core.rmem_max caps what recv_buf_size can get).
+TEST_F(PythonExampleLive, ReceivesLargeRawMapsWithALargeReceiveBuffer) {
+  std::ifstream rmem_max("/proc/sys/net/core/rmem_max");
+  long bytes = 0;
+  rmem_max >> bytes;
+  if (bytes < 4194304) {
+    GTEST_SKIP() << "net.core.rmem_max is " << bytes << "; raw 512 x 512 maps need a 4 MiB "
+                 << "receive buffer (sysctl -w net.core.rmem_max=4194304), which this test does "
+                 << "not change for the machine";
+  }
+  const std::string out = receive("udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304", 15,
+                                  {{"--count", "15", "--rate", "15", "--encoding", "raw"}});
+  EXPECT_NE(out.find("maps 15, lost 0 (seq gaps), undecodable 0"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace occmap

@@ -1,0 +1,194 @@
+// `occmap view` and `occmap status` against a live publisher over LCM's UDP multicast, with the
+// default URL, inside a network namespace of the test's own (tests/network_namespace.h).
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "child_process.h"
+#include "command_runner.h"
+#include "map_scenes.h"
+#include "network_namespace.h"
+#include "temporary_folder.h"
+
+namespace occmap {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::ChildProcess;
+using testing::runCommand;
+using testing::TemporaryFolder;
+
+const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
+const std::string kPublisher = OCCMAP_BINARY_DIR "/tests/map_publisher";
+
+class LiveLcm : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const std::string& problem = testing::enterPrivateNetwork();
+    if (!problem.empty()) GTEST_SKIP() << problem;
+  }
+
+  // Starts `occmap view` with `arguments` and waits until it listens.
+  std::unique_ptr<ChildProcess> startView(std::vector<std::string> arguments) {
+    arguments.insert(arguments.begin(), {kOccmap, "view"});
+    auto view = std::make_unique<ChildProcess>(arguments, folder_ / "view");
+    EXPECT_TRUE(view->waitForOutput("listening for maps", 10s))
+        << "occmap view did not start listening:\n"
+        << view->out() << view->err();
+    return view;
+  }
+
+  // Runs the publisher to its end.
+  void publish(std::vector<std::string> arguments) {
+    arguments.insert(arguments.begin(), kPublisher);
+    const auto result = runCommand(arguments);
+    ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  }
+
+  TemporaryFolder folder_;
+};
+
+int countVideoFrames(const std::string& file, int api) {
+  cv::VideoCapture video(file, api);
+  if (!video.isOpened()) return -1;
+  int frames = 0;
+  cv::Mat frame;
+  while (video.read(frame)) {
+    EXPECT_EQ(frame.cols, 512);
+    EXPECT_EQ(frame.rows, 512);
+    ++frames;
+  }
+  return frames;
+}
+
+TEST_F(LiveLcm, ViewReceivesEveryMapAndWritesThePictureAndTheVideo) {
+  const std::string png = (folder_ / "last.png").string();
+  const std::string avi = (folder_ / "maps.avi").string();
+  auto view = startView({"--count", "60", "--png", png, "--video", avi, "--timeout", "20"});
+  // 60 zstd maps of 512 x 512 cells at 30 Hz on the default URL and channel.
+  publish({"--count", "60", "--rate", "30", "--encoding", "zstd"});
+  const auto code = view->waitExit(20s);
+  ASSERT_TRUE(code) << "occmap view did not stop after 60 maps:\n" << view->out() << view->err();
+  const std::string out = view->out();
+  ASSERT_EQ(*code, 0) << out << view->err();
+  EXPECT_NE(out.find("summary: received 60 maps"), std::string::npos) << out;
+  EXPECT_NE(out.find("lost 0 (0 seq gaps), undecodable 0"), std::string::npos) << out;
+  EXPECT_NE(out.find("maps/s  latency mean"), std::string::npos) << "no per-second line:\n" << out;
+  EXPECT_EQ(view->err(), "");
+
+  // The last map (seq 59) as a floor plan, +y up: picture row 511 - r shows map row r, each cell
+  // in its state's colour (the scale bar at the bottom left aside).
+  const cv::Mat picture = cv::imread(png);
+  ASSERT_FALSE(picture.empty()) << "no picture at " << png;
+  ASSERT_EQ(picture.cols, 512);
+  ASSERT_EQ(picture.rows, 512);
+  MapFrame expected(MapGeometry{-0.5, -1.5, 0.02, 512, 512}, 4);
+  testing::fillScene(expected, 59);
+  const cv::Vec3b colours[] = {{245, 245, 245}, {35, 35, 35}, {170, 140, 120}};
+  int wrong = 0;
+  for (int row = 0; row < 512; ++row) {
+    for (int column = 0; column < 512; ++column) {
+      if (row < 40 && column < 200) continue;  // the scale bar
+      const auto state = static_cast<std::size_t>(expected.map.at(row, column));
+      wrong += picture.at<cv::Vec3b>(511 - row, column) != colours[state];
+    }
+  }
+  EXPECT_EQ(wrong, 0) << "pixels of the picture that do not show their cell's state";
+
+  // The video holds every map, readable by OpenCV's own reader and, where OpenCV has it, FFmpeg.
+  EXPECT_EQ(countVideoFrames(avi, cv::CAP_OPENCV_MJPEG), 60);
+  const int ffmpeg_frames = countVideoFrames(avi, cv::CAP_FFMPEG);
+  if (ffmpeg_frames >= 0) {
+    EXPECT_EQ(ffmpeg_frames, 60) << "FFmpeg reads another frame count";
+  }
+}
+
+TEST_F(LiveLcm, ViewCountsLostAndUndecodableMaps) {
+  auto view = startView({"--count", "26", "--timeout", "20"});
+  // 30 sequence numbers, 4 of them never sent (two gaps), after 3 messages that are not maps.
+  publish({"--count", "30", "--rate", "60", "--width", "200", "--height", "100", "--drop", "5",
+           "--drop", "6", "--drop", "7", "--drop", "20", "--garbage", "3"});
+  const auto code = view->waitExit(20s);
+  ASSERT_TRUE(code) << view->out() << view->err();
+  EXPECT_EQ(*code, 0) << view->out() << view->err();
+  EXPECT_NE(view->out().find("received 26 maps"), std::string::npos) << view->out();
+  EXPECT_NE(view->out().find("lost 4 (2 seq gaps), undecodable 3"), std::string::npos)
+      << view->out();
+  EXPECT_NE(view->err().find("not an occmap.map_frame_t"), std::string::npos) << view->err();
+}
+
+// Raw maps above 65 499 bytes travel in LCM fragments (LC03); a 256 x 256 raw map takes two.
+TEST_F(LiveLcm, ViewReceivesRawMapsInFragments) {
+  auto view = startView({"--count", "20", "--timeout", "20"});
+  publish(
+      {"--count", "20", "--rate", "20", "--encoding", "raw", "--width", "256", "--height", "256"});
+  const auto code = view->waitExit(20s);
+  ASSERT_TRUE(code) << view->out() << view->err();
+  EXPECT_EQ(*code, 0) << view->out() << view->err();
+  EXPECT_NE(view->out().find("received 20 maps"), std::string::npos) << view->out();
+}
+
+TEST_F(LiveLcm, ViewExitsThreeWhenNoMapArrives) {
+  const auto result = runCommand({kOccmap, "view", "--timeout", "1"});
+  EXPECT_EQ(result.exit_code, 3) << result.out << result.err;
+  EXPECT_NE(result.err.find("no map on OCCMAP_MAP at udpm://239.255.76.67:7667?ttl=0 within 1 s"),
+            std::string::npos)
+      << result.err;
+  EXPECT_NE(result.out.find("summary: received 0 maps"), std::string::npos) << result.out;
+}
+
+TEST_F(LiveLcm, StatusExitsThreeWhenNobodyAnswers) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto result = runCommand({kOccmap, "status", "--timeout", "1"});
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(result.exit_code, 3) << result.out << result.err;
+  EXPECT_NE(result.err.find("no occmapd answered within 1 s (2 requests on "
+                            "OCCMAP_STATUS_REQUEST at udpm://239.255.76.67:7667?ttl=0)"),
+            std::string::npos)
+      << result.err;
+  EXPECT_EQ(result.out, "");
+  EXPECT_LT(seconds, 3.0);
+}
+
+TEST_F(LiveLcm, StatusPrintsTheAnswerAsATableAndAsJson) {
+  ChildProcess daemon({kPublisher, "--answer-status", "20"}, folder_ / "daemon");
+  ASSERT_TRUE(daemon.waitForOutput("answering status requests", 10s)) << daemon.err();
+  auto result = runCommand({kOccmap, "status", "--timeout", "5"});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  const std::string& table = result.out;
+  for (const char* expected :
+       {"occmapd on test-host (config /etc/occmap/test.yaml)", "state running, up 1:02:03",
+        "maps published 111683 (30.0 maps/s), publish errors 2",
+        "fusion per frame set: p50 3.25 ms, p99 7.50 ms",
+        "camera       state       frames in   dropped     fps  last capture",
+        "c0           streaming      111700         0    30.0  12 ms ago",
+        "door-camera  down           106700         3     0.0  4.2 s ago"}) {
+    EXPECT_NE(table.find(expected), std::string::npos) << "no '" << expected << "' in\n" << table;
+  }
+  result = runCommand({kOccmap, "status", "--json"});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  for (const char* expected :
+       {"{\"utime\":", "\"hostname\":\"test-host\"", "\"state_name\":\"running\"",
+        "\"maps_published\":111683", "\"cameras\":[{\"name\":\"c0\",\"source\":\"sim://room/c0\"",
+        "\"state_name\":\"down\"", "\"fusion_p99_ms\":7.5,"}) {
+    EXPECT_NE(result.out.find(expected), std::string::npos)
+        << "no " << expected << " in " << result.out;
+  }
+  EXPECT_EQ(std::count(result.out.begin(), result.out.end(), '\n'), 1) << result.out;
+}
+
+TEST(OccmapViewArguments, RefusesAVideoThatIsNotAvi) {
+  // memq:// (in-process) so that nothing could reach a network even if the arguments were taken.
+  const auto result = runCommand({kOccmap, "view", "--lcm-url", "memq://", "--video", "maps.mp4"});
+  EXPECT_EQ(result.exit_code, 2) << result.out << result.err;
+  EXPECT_NE(result.err.find("maps.mp4: --video: the video is Motion JPEG in an AVI file"),
+            std::string::npos)
+      << result.err;
+  EXPECT_EQ(runCommand({kOccmap, "view", "--lcm-url", "memq://", "--count", "0"}).exit_code, 2);
+  EXPECT_EQ(runCommand({kOccmap, "status", "--lcm-url", "memq://", "--timeout", "-1"}).exit_code,
+            2);
+}
+
+}  // namespace
+}  // namespace occmap

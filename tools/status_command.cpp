@@ -1,0 +1,181 @@
+// occmap status: ask the running occmapd how it is doing, over LCM.
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <random>
+#include <vector>
+
+#include <occmap/status_request_t.hpp>
+#include <occmap/status_t.hpp>
+
+#include "daemon/config.h"
+#include "daemon/exit_codes.h"
+#include "tools/commands.h"
+#include "transport/lcm_bus.h"
+#include "transport/status_text.h"
+
+namespace occmap::tools {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct StatusOptions {
+  std::string lcm_url = TransportSettings{}.lcm_url;
+  std::string channel = TransportSettings{}.status_channel;
+  double timeout = 3;
+  bool json = false;
+};
+
+std::int64_t nowUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// A random, non-negative id (-1 marks the daemon's periodic status).
+std::int64_t randomRequestId() {
+  std::random_device device;
+  const std::uint64_t high = device(), low = device();
+  return static_cast<std::int64_t>((high << 32 | low) & 0x7fffffffffffffffull);
+}
+
+int run(const StatusOptions& o) {
+  LcmBus bus(o.lcm_url);
+  if (!bus.good()) {
+    std::fprintf(stderr,
+                 "occmap status: failed: cannot open LCM at %s (is the URL right? for udpm://, "
+                 "does the host have a multicast route?)\n",
+                 o.lcm_url.c_str());
+    return kExitFailure;
+  }
+  const std::int64_t request_id = randomRequestId();
+  std::optional<occmap::status_t> answer;
+  std::int64_t periodic = 0, others = 0, undecodable = 0;
+  std::string periodic_host;
+  const bool subscribed =
+      bus.subscribe(o.channel, [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+        occmap::status_t status{};
+        int used = -1;
+        try {  // LCM's generated decoder throws on some malformed strings
+          used = status.decode(data, 0, static_cast<int>(size));
+        } catch (const std::exception&) {
+          used = -1;
+        }
+        if (used != static_cast<int>(size)) {
+          ++undecodable;
+        } else if (status.request_id == request_id) {
+          answer = std::move(status);
+        } else if (status.request_id == -1) {
+          ++periodic;
+          periodic_host = status.hostname;
+        } else {
+          ++others;  // an answer to someone else's request
+        }
+      });
+  if (!subscribed) {
+    std::fprintf(stderr, "occmap status: failed: cannot subscribe to %s at %s\n", o.channel.c_str(),
+                 o.lcm_url.c_str());
+    return kExitFailure;
+  }
+
+  const std::string request_channel = statusRequestChannel(o.channel);
+  std::vector<std::uint8_t> buffer;
+  int requests = 0;
+  const auto start = Clock::now();
+  const auto deadline =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.timeout));
+  auto next_request = start;
+  while (!answer) {
+    const auto now = Clock::now();
+    if (now >= deadline) break;
+    if (now >= next_request) {  // again every 0.5 s: a datagram may be lost
+      occmap::status_request_t request{};
+      request.utime = nowUtime();
+      request.request_id = request_id;
+      buffer.resize(static_cast<std::size_t>(request.getEncodedSize()));
+      request.encode(buffer.data(), 0, static_cast<int>(buffer.size()));
+      if (!bus.publish(request_channel, buffer)) {
+        std::fprintf(stderr, "occmap status: failed: cannot publish on %s at %s\n",
+                     request_channel.c_str(), o.lcm_url.c_str());
+        return kExitFailure;
+      }
+      ++requests;
+      next_request += std::chrono::milliseconds(500);
+    }
+    const auto wait = std::min(std::min(next_request, deadline) - now,
+                               Clock::duration(std::chrono::milliseconds(50)));
+    const int wait_ms =
+        1 + static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(wait).count());
+    if (bus.handleTimeout(wait_ms) < 0) {
+      std::fprintf(stderr, "occmap status: failed: LCM stopped receiving (%s)\n",
+                   o.lcm_url.c_str());
+      return kExitFailure;
+    }
+  }
+  if (!answer) {
+    std::fprintf(stderr,
+                 "occmap status: no result: no occmapd answered within %g s (%d request%s on %s "
+                 "at %s).",
+                 o.timeout, requests, requests == 1 ? "" : "s", request_channel.c_str(),
+                 o.lcm_url.c_str());
+    if (periodic > 0) {
+      std::fprintf(stderr,
+                   " Its periodic status did arrive (from %s): it may be too busy to answer, or "
+                   "an older version.\n",
+                   periodic_host.c_str());
+    } else {
+      std::fprintf(stderr,
+                   " Is occmapd running, with the same transport.lcm_url and status_channel? "
+                   "(ttl=0 reaches this host only.)\n");
+    }
+    if (undecodable > 0) {
+      std::fprintf(stderr, "occmap status: %lld undecodable message%s on %s\n",
+                   static_cast<long long>(undecodable), undecodable == 1 ? "" : "s",
+                   o.channel.c_str());
+    }
+    return kExitNoResult;
+  }
+  if (o.json) {
+    std::printf("%s\n", formatStatusJson(*answer).c_str());
+  } else {
+    std::printf("%s", formatStatusTable(*answer).c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+Command addStatusCommand(CLI::App& app) {
+  auto options = std::make_shared<StatusOptions>();
+  CLI::App* command = app.add_subcommand(
+      "status",
+      "Ask the running occmapd how it is doing, over LCM.\n"
+      "Publishes a status request with a random id on the status channel's name + \"_REQUEST\" "
+      "(OCCMAP_STATUS_REQUEST by default), again every 0.5 s, until occmapd answers on the "
+      "status channel with that id; then prints the daemon's state, uptime, maps published, "
+      "publish errors, maps per second and fusion time (p50, p99), and a table of its cameras: "
+      "state, frames in, frames dropped, frames per second and the age of the last capture.\n\n"
+      "Examples:\n"
+      "  occmap status\n"
+      "  occmap status --lcm-url 'udpm://239.255.76.67:7667?ttl=1' --timeout 5 --json\n\n"
+      "Exit codes: 0 answered; 1 failed (LCM could not be opened or the request not sent); "
+      "2 bad arguments; 3 no occmapd answered within --timeout (the message says so on stderr).");
+  command
+      ->add_option("--lcm-url", options->lcm_url, "LCM URL of the daemon (its transport.lcm_url)")
+      ->capture_default_str();
+  command
+      ->add_option("--channel", options->channel,
+                   "Status channel (transport.status_channel); requests go to its name + "
+                   "\"_REQUEST\"")
+      ->capture_default_str();
+  command->add_option("--timeout", options->timeout, "Seconds to wait for an answer")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_flag("--json", options->json,
+                    "Print the answer as one JSON object on one line (every status_t field by its "
+                    "LCM name, states also by name)");
+  return [options] { return run(*options); };
+}
+
+}  // namespace occmap::tools

@@ -1,0 +1,353 @@
+// occmap view: watch the maps occmapd broadcasts over LCM: rate, latency, losses, and the maps
+// themselves as a picture or a video.
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "daemon/config.h"
+#include "daemon/exit_codes.h"
+#include "daemon/input_error.h"
+#include "tools/commands.h"
+#include "tools/pictures.h"
+#include "transport/lcm_bus.h"
+#include "transport/map_codec.h"
+
+namespace occmap::tools {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct ViewOptions {
+  std::string lcm_url = TransportSettings{}.lcm_url;
+  std::string channel = TransportSettings{}.map_channel;
+  std::int64_t count = 0;  // 0: no limit
+  double seconds = 0;      // 0: no limit
+  double timeout = 10;     // 0: wait for ever
+  std::string png;
+  std::string video;
+  double video_fps = 30;
+};
+
+volatile std::sig_atomic_t g_stop = 0;
+extern "C" void onStopSignal(int) { g_stop = 1; }
+
+// Ctrl-C and SIGTERM end the run as --count would, so that the summary, the picture and the
+// video are still written. The previous handlers come back at the end.
+class StopSignals {
+ public:
+  StopSignals() {
+    g_stop = 0;
+    struct sigaction action {};
+    action.sa_handler = onStopSignal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &old_int_);
+    sigaction(SIGTERM, &action, &old_term_);
+  }
+  ~StopSignals() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+struct Latency {
+  std::int64_t maps = 0;
+  double sum_ms = 0;
+  double max_ms = 0;
+  void add(double ms) {
+    ++maps;
+    sum_ms += ms;
+    max_ms = maps == 1 ? ms : std::max(max_ms, ms);
+  }
+  double mean() const { return maps > 0 ? sum_ms / static_cast<double>(maps) : 0.0; }
+};
+
+class Viewer {
+ public:
+  explicit Viewer(const ViewOptions& options) : o_(options) {}
+
+  void onMessage(const std::uint8_t* data, std::size_t size, std::int64_t recv_utime) {
+    const DecodedMap& map = decoder_.decode(data, size);
+    if (!map.ok()) {
+      ++undecodable_;
+      ++interval_undecodable_;
+      if (undecodable_ <= 5) {
+        std::fprintf(stderr, "occmap view: an undecodable message on %s (%zu bytes): %s%s\n",
+                     o_.channel.c_str(), size, map.error.c_str(),
+                     undecodable_ == 5 ? " (no more of these are shown)" : "");
+      }
+      return;
+    }
+    ++received_;
+    last_map_time_ = Clock::now();
+    if (last_seq_) {
+      if (map.seq > *last_seq_ + 1) {
+        ++gaps_;
+        lost_ += map.seq - *last_seq_ - 1;
+        interval_lost_ += map.seq - *last_seq_ - 1;
+      } else if (map.seq <= *last_seq_) {
+        std::printf("seq went back from %lld to %lld: the publisher restarted\n",
+                    static_cast<long long>(*last_seq_), static_cast<long long>(map.seq));
+      }
+    }
+    last_seq_ = map.seq;
+    const double latency_ms = static_cast<double>(recv_utime - map.utime) / 1000.0;
+    interval_latency_.add(latency_ms);
+    total_latency_.add(latency_ms);
+    const auto occupied = std::count(map.cells.begin(), map.cells.end(),
+                                     static_cast<std::uint8_t>(CellState::kOccupied));
+    interval_occupied_ = static_cast<double>(occupied) / static_cast<double>(map.cells.size());
+    if (!o_.png.empty() || !o_.video.empty()) last_map_ = map.toOccupancyMap();
+    if (!o_.video.empty() && !video_failed_) writeVideoFrame();
+  }
+
+  // One line on the second that just ended.
+  void report(double elapsed_s) {
+    if (interval_latency_.maps == 0) {
+      std::printf("%5.0f s  %4d maps/s%s\n", elapsed_s, 0,
+                  interval_undecodable_ > 0 ? "  (only undecodable messages)" : "");
+    } else {
+      std::printf(
+          "%5.0f s  %4lld maps/s  latency mean %6.1f ms, max %6.1f ms  occupied %5.2f %%  lost %lld"
+          "%s\n",
+          elapsed_s, static_cast<long long>(interval_latency_.maps), interval_latency_.mean(),
+          interval_latency_.max_ms, 100.0 * interval_occupied_,
+          static_cast<long long>(interval_lost_),
+          interval_undecodable_ > 0 ? "  (and undecodable messages)" : "");
+    }
+    std::fflush(stdout);
+    interval_latency_ = {};
+    interval_lost_ = 0;
+    interval_undecodable_ = 0;
+  }
+
+  // Writes the picture, closes the video and prints the summary; returns the exit code.
+  int finish(double elapsed_s, bool timed_out) {
+    if (writer_.isOpened()) writer_.release();
+    std::printf(
+        "summary: received %lld maps in %.2f s (%.1f maps/s), lost %lld (%lld seq gaps), "
+        "undecodable %lld",
+        static_cast<long long>(received_), elapsed_s,
+        elapsed_s > 0 ? static_cast<double>(received_) / elapsed_s : 0.0,
+        static_cast<long long>(lost_), static_cast<long long>(gaps_),
+        static_cast<long long>(undecodable_));
+    if (total_latency_.maps > 0) {
+      std::printf("; latency mean %.2f ms, max %.2f ms", total_latency_.mean(),
+                  total_latency_.max_ms);
+    }
+    std::printf("\n");
+    if (received_ == 0) {
+      if (timed_out) {
+        std::fprintf(stderr,
+                     "occmap view: no result: no map on %s at %s within %g s (--timeout). Is "
+                     "occmapd running and publishing there? (ttl=0 reaches this host only)\n",
+                     o_.channel.c_str(), o_.lcm_url.c_str(), o_.timeout);
+      } else {
+        std::fprintf(stderr, "occmap view: no result: no map on %s at %s before the run ended\n",
+                     o_.channel.c_str(), o_.lcm_url.c_str());
+      }
+      return kExitNoResult;
+    }
+    int code = kExitOk;
+    if (!o_.png.empty()) {
+      if (cv::imwrite(o_.png, floorPlan(*last_map_, scaleFor(last_map_->geometry)))) {
+        std::printf("wrote %s (the last map, seq %lld, as a floor plan: +y up)\n", o_.png.c_str(),
+                    static_cast<long long>(*last_seq_));
+      } else {
+        std::fprintf(stderr, "occmap view: cannot write %s\n", o_.png.c_str());
+        code = kExitFailure;
+      }
+    }
+    if (!o_.video.empty()) {
+      if (video_failed_) {
+        code = kExitFailure;
+      } else {
+        std::printf("wrote %s (%lld frames, Motion JPEG at %g frames/s, by %s's encoder)\n",
+                    o_.video.c_str(), static_cast<long long>(video_frames_), o_.video_fps,
+                    video_encoder_);
+      }
+    }
+    return code;
+  }
+
+  std::int64_t received() const { return received_; }
+  Clock::time_point lastMapTime() const { return last_map_time_; }
+  void setStart(Clock::time_point start) { last_map_time_ = start; }
+
+ private:
+  // Pixels per cell of the pictures: about 600 pixels across, at least one per cell.
+  static int scaleFor(const MapGeometry& g) {
+    return std::max(1, 600 / std::max(g.width, g.height));
+  }
+
+  void writeVideoFrame() {
+    cv::Mat plan = floorPlan(*last_map_, scaleFor(last_map_->geometry));
+    if (!writer_.isOpened()) {
+      video_size_ = plan.size();
+      // Motion JPEG in AVI plays everywhere. FFmpeg's encoder first: OpenCV's own (for builds
+      // without FFmpeg) cuts the last bits of some frames short, which decoders warn about.
+      for (const auto& [api, name] :
+           {std::pair{cv::CAP_FFMPEG, "FFmpeg"}, std::pair{cv::CAP_OPENCV_MJPEG, "OpenCV"}}) {
+        if (writer_.open(o_.video, api, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), o_.video_fps,
+                         video_size_, true)) {
+          video_encoder_ = name;
+          break;
+        }
+      }
+      if (!writer_.isOpened()) {
+        std::fprintf(stderr, "occmap view: cannot write the video %s\n", o_.video.c_str());
+        video_failed_ = true;
+        return;
+      }
+    }
+    if (plan.size() != video_size_) {  // the map's size changed (the daemon's config was reloaded)
+      cv::resize(plan, plan, video_size_, 0, 0, cv::INTER_NEAREST);
+    }
+    writer_.write(plan);
+    ++video_frames_;
+  }
+
+  const ViewOptions& o_;
+  MapDecoder decoder_;
+  std::int64_t received_ = 0, lost_ = 0, gaps_ = 0, undecodable_ = 0;
+  std::optional<std::int64_t> last_seq_;
+  Clock::time_point last_map_time_;
+  Latency interval_latency_, total_latency_;
+  std::int64_t interval_lost_ = 0, interval_undecodable_ = 0;
+  double interval_occupied_ = 0;
+  std::optional<OccupancyMap> last_map_;
+  cv::VideoWriter writer_;
+  cv::Size video_size_;
+  bool video_failed_ = false;
+  std::int64_t video_frames_ = 0;
+  const char* video_encoder_ = "";
+};
+
+int run(const ViewOptions& o) {
+  if (!o.video.empty()) {
+    std::string extension = std::filesystem::path(o.video).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (extension != ".avi") {
+      throw InputError(o.video, 0, "--video",
+                       "the video is Motion JPEG in an AVI file: give a name ending in .avi");
+    }
+  }
+  LcmBus bus(o.lcm_url);
+  if (!bus.good()) {
+    std::fprintf(stderr,
+                 "occmap view: failed: cannot open LCM at %s (is the URL right? for udpm://, "
+                 "does the host have a multicast route?)\n",
+                 o.lcm_url.c_str());
+    return kExitFailure;
+  }
+  Viewer viewer(o);
+  if (!bus.subscribe(o.channel, [&viewer](const std::uint8_t* data, std::size_t size,
+                                          std::int64_t recv_utime) {
+        viewer.onMessage(data, size, recv_utime);
+      })) {
+    std::fprintf(stderr, "occmap view: failed: cannot subscribe to %s at %s\n", o.channel.c_str(),
+                 o.lcm_url.c_str());
+    return kExitFailure;
+  }
+  std::printf("listening for maps on %s at %s\n", o.channel.c_str(), o.lcm_url.c_str());
+  std::fflush(stdout);
+
+  const StopSignals signals;
+  const auto start = Clock::now();
+  viewer.setStart(start);
+  const auto seconds = [](double s) {
+    return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+  };
+  auto next_report = start + std::chrono::seconds(1);
+  bool timed_out = false;
+  while (g_stop == 0) {
+    if (o.count > 0 && viewer.received() >= o.count) break;
+    const auto now = Clock::now();
+    if (o.seconds > 0 && now >= start + seconds(o.seconds)) break;
+    if (o.timeout > 0 && now >= viewer.lastMapTime() + seconds(o.timeout)) {
+      timed_out = true;
+      break;
+    }
+    if (now >= next_report) {
+      viewer.report(std::chrono::duration<double>(next_report - start).count());
+      next_report += std::chrono::seconds(1);
+      continue;
+    }
+    const auto wait = std::min(next_report - now, Clock::duration(std::chrono::milliseconds(100)));
+    const int wait_ms =
+        1 + static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(wait).count());
+    if (bus.handleTimeout(wait_ms) < 0) {
+      std::fprintf(stderr, "occmap view: failed: LCM stopped receiving (%s)\n", o.lcm_url.c_str());
+      return kExitFailure;
+    }
+  }
+  return viewer.finish(std::chrono::duration<double>(Clock::now() - start).count(), timed_out);
+}
+
+}  // namespace
+
+Command addViewCommand(CLI::App& app) {
+  auto options = std::make_shared<ViewOptions>();
+  CLI::App* command = app.add_subcommand(
+      "view",
+      "Watch the maps occmapd broadcasts over LCM.\n"
+      "Subscribes to the map channel and prints one line per second: maps received, the latency "
+      "from each map's time (the capture time of its newest camera frame) to its receipt here "
+      "(mean and max; across machines this needs their clocks in step), the occupied share of "
+      "the last map, and maps lost (gaps in the maps' seq numbers). At the end it prints a "
+      "summary (maps received, lost, undecodable) and writes the last map as a picture "
+      "(--png) and every map as a video (--video), drawn as floor plans: +y up, with a scale "
+      "bar; white free, black occupied, blue-grey unseen.\n"
+      "It runs until --count maps, --seconds, Ctrl-C, or --timeout seconds without a map.\n"
+      "Raw (unencoded) maps of 512 x 512 cells arrive in LCM fragments: give the receiver a "
+      "large socket buffer with ?recv_buf_size=4194304 in the URL (Linux caps it at "
+      "net.core.rmem_max).\n\n"
+      "Examples:\n"
+      "  occmap view                                   # the default URL and channel\n"
+      "  occmap view --count 300 --png last.png --video maps.avi\n"
+      "  occmap view --lcm-url 'udpm://239.255.76.67:7667?ttl=1' --seconds 60\n\n"
+      "Exit codes: 0 at least one map received; 1 failed (LCM could not be opened, a picture or "
+      "video could not be written); 2 bad arguments; 3 no map arrived (within --timeout, or before "
+      "--seconds ended).");
+  command
+      ->add_option("--lcm-url", options->lcm_url,
+                   "LCM URL to listen on: the daemon's transport.lcm_url")
+      ->capture_default_str();
+  command->add_option("--channel", options->channel, "Map channel (transport.map_channel)")
+      ->capture_default_str();
+  command->add_option("--count", options->count, "Stop after this many maps")
+      ->check(CLI::PositiveNumber);
+  command->add_option("--seconds", options->seconds, "Stop after this many seconds")
+      ->check(CLI::PositiveNumber);
+  command
+      ->add_option("--timeout", options->timeout,
+                   "Stop when no map arrived for this many seconds (the first or the next); 0 "
+                   "waits for ever")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--png", options->png,
+                      "Write the last map received to this PNG file, as a floor plan");
+  command->add_option("--video", options->video,
+                      "Write every map received to this video (.avi, Motion JPEG), as floor plans");
+  command->add_option("--video-fps", options->video_fps, "Frame rate the video plays at")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  return [options] { return run(*options); };
+}
+
+}  // namespace occmap::tools

@@ -1,0 +1,54 @@
+#include "transport/lcm_bus.h"
+
+#include <lcm/lcm-cpp.hpp>
+
+namespace occmap {
+
+std::string statusRequestChannel(const std::string& status_channel) {
+  return status_channel + "_REQUEST";
+}
+
+namespace {
+
+// LCM's C callback. Subscriptions go through LCM's C API rather than lcm::LCM::subscribe: that
+// template builds a std::string of the channel for every message (an allocation for names longer
+// than 15 bytes, such as OCCMAP_STATUS_REQUEST), and GCC 12's -fsanitize=vptr (part of UBSan)
+// misreads its subscription objects and crashes in the callback.
+void dispatch(const lcm_recv_buf_t* buffer, const char* /*channel*/, void* context) {
+  const auto& handler = *static_cast<const LcmBus::Handler*>(context);
+  handler(static_cast<const std::uint8_t*>(buffer->data), buffer->data_size, buffer->recv_utime);
+}
+
+}  // namespace
+
+LcmBus::LcmBus(const std::string& url) : url_(url), lcm_(std::make_unique<lcm::LCM>(url)) {}
+
+LcmBus::~LcmBus() = default;
+
+bool LcmBus::good() const { return lcm_->good(); }
+
+bool LcmBus::publish(const std::string& channel, std::span<const std::uint8_t> message) {
+  if (!lcm_->good() || message.size() > static_cast<std::size_t>(LCM_MAX_MESSAGE_SIZE)) {
+    return false;
+  }
+  return lcm_->publish(channel, message.data(), static_cast<unsigned int>(message.size())) == 0;
+}
+
+bool LcmBus::subscribe(const std::string& channel, Handler handler) {
+  if (!lcm_->good()) return false;
+  auto stored = std::make_unique<Handler>(std::move(handler));
+  handlers_.reserve(handlers_.size() + 1);  // so that push_back cannot throw below
+  if (lcm_subscribe(lcm_->getUnderlyingLCM(), channel.c_str(), dispatch, stored.get()) == nullptr) {
+    return false;
+  }
+  handlers_.push_back(std::move(stored));
+  return true;
+}
+
+int LcmBus::fileno() { return lcm_->good() ? lcm_->getFileno() : -1; }
+
+int LcmBus::handleTimeout(int timeout_ms) {
+  return lcm_->good() ? lcm_->handleTimeout(timeout_ms) : -1;
+}
+
+}  // namespace occmap

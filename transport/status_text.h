@@ -1,0 +1,25 @@
+#pragma once
+// occmapd's status (occmap.status_t) as text for people and as JSON for programs: what
+// `occmap status` prints, and what the daemon can write to its log.
+
+#include <string>
+
+#include <occmap/status_t.hpp>
+
+namespace occmap {
+
+// A few lines on the daemon (state, uptime, maps published, publish errors, maps/s, fusion p50 and
+// p99), then a table with one row per camera: name, state, frames in, dropped, fps, and the age of
+// its last capture at the time of the status. Ends with a newline.
+std::string formatStatusTable(const occmap::status_t& status);
+
+// One JSON object on one line (no newline), every field of status_t by its LCM name, states also
+// by name ("state_name"), cameras as an array of objects.
+std::string formatStatusJson(const occmap::status_t& status);
+
+// "starting", "running", "reloading", "stopping"; "state N" for a value this build does not know.
+std::string daemonStateName(int state);
+// "starting", "streaming", "down"; "state N" otherwise.
+std::string cameraStateName(int state);
+
+}  // namespace occmap
