@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <deque>
 #include <stdexcept>
 
 #include <occmap/status_request_t.hpp>
@@ -348,9 +349,16 @@ void Pipeline::lcmLoop() {
   const std::int64_t daemon_start_ns =
       toNs(options_.daemon_start.time_since_epoch());  // steady_clock is CLOCK_MONOTONIC
   std::int64_t next_status_ns = monotonicNs();
-  std::int64_t last_status_ns = next_status_ns;
-  std::uint64_t last_published = 0;
-  std::vector<std::uint64_t> last_frames(counters_.size(), 0);
+  // Rates are measured over the last few status periods: one period alone is too short to be
+  // steady.
+  struct Sample {
+    std::int64_t ns;
+    std::uint64_t published;
+    std::vector<std::uint64_t> frames;
+  };
+  constexpr std::size_t kRateSamples = 5;
+  std::deque<Sample> samples;
+  samples.push_back({next_status_ns, 0, std::vector<std::uint64_t>(counters_.size(), 0)});
   double answer_tokens = options_.max_status_answers_per_s;
   std::int64_t last_token_ns = next_status_ns;
   std::vector<std::uint8_t> status_buffer;
@@ -358,7 +366,8 @@ void Pipeline::lcmLoop() {
   std::int64_t next_seq = 0;
 
   auto publishStatus = [&](std::int64_t request_id, std::int64_t now) {
-    const double window_s = std::max(1e-3, static_cast<double>(now - last_status_ns) / 1e9);
+    const Sample& oldest = samples.front();
+    const double window_s = std::max(1e-3, static_cast<double>(now - oldest.ns) / 1e9);
     status.utime = hostTimeMicroseconds();
     status.request_id = request_id;
     status.hostname = host;
@@ -369,7 +378,7 @@ void Pipeline::lcmLoop() {
     status.maps_published = static_cast<std::int64_t>(published);
     status.publish_errors =
         static_cast<std::int64_t>(publish_errors_.load(std::memory_order_relaxed));
-    status.maps_per_s = static_cast<double>(published - last_published) / window_s;
+    status.maps_per_s = static_cast<double>(published - oldest.published) / window_s;
     status.fusion_p50_ms = fusion_times_.percentileMs(0.50);
     status.fusion_p99_ms = fusion_times_.percentileMs(0.99);
     status.num_cameras = static_cast<std::int16_t>(counters_.size());
@@ -384,13 +393,16 @@ void Pipeline::lcmLoop() {
       s.frames_in = static_cast<std::int64_t>(frames);
       s.frames_dropped =
           static_cast<std::int64_t>(c.frames_dropped.load(std::memory_order_relaxed));
-      s.fps = static_cast<double>(frames - last_frames[k]) / window_s;
+      s.fps = static_cast<double>(frames - oldest.frames[k]) / window_s;
       s.last_capture_utime = c.last_capture_us.load(std::memory_order_relaxed);
-      if (request_id < 0) last_frames[k] = frames;
     }
     if (request_id < 0) {
-      last_published = published;
-      last_status_ns = now;
+      Sample sample{now, published, {}};
+      for (const auto& c : counters_) {
+        sample.frames.push_back(c->frames_in.load(std::memory_order_relaxed));
+      }
+      samples.push_back(std::move(sample));
+      if (samples.size() > kRateSamples) samples.pop_front();
     }
     status_buffer.resize(static_cast<std::size_t>(status.getEncodedSize()));
     status.encode(status_buffer.data(), 0, static_cast<int>(status_buffer.size()));

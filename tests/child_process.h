@@ -21,12 +21,15 @@ namespace occmap::testing {
 
 class ChildProcess {
  public:
-  // Starts arguments[0] (a path) with the arguments; output goes to `<files>.out` and `.err`.
-  ChildProcess(const std::vector<std::string>& arguments, const std::filesystem::path& files)
+  // Starts arguments[0] (a path) with the arguments and, on top of this process's environment,
+  // `environment`; output goes to `<files>.out` and `.err`.
+  ChildProcess(const std::vector<std::string>& arguments, const std::filesystem::path& files,
+               const std::vector<std::pair<std::string, std::string>>& environment = {})
       : out_(files.string() + ".out"), err_(files.string() + ".err") {
     std::fflush(nullptr);
     pid_ = ::fork();
     if (pid_ == 0) {
+      for (const auto& [name, value] : environment) ::setenv(name.c_str(), value.c_str(), 1);
       if (std::freopen(out_.c_str(), "w", stdout) == nullptr) ::_exit(126);
       if (std::freopen(err_.c_str(), "w", stderr) == nullptr) ::_exit(126);
       std::vector<char*> argv;
@@ -48,6 +51,9 @@ class ChildProcess {
   ChildProcess& operator=(const ChildProcess&) = delete;
 
   bool started() const { return pid_ > 0; }
+  pid_t pid() const { return pid_; }
+  // Still running (not yet seen to end by waitExit()).
+  bool running() { return pid_ > 0 && !waitExit(std::chrono::milliseconds(0)); }
   void signal(int number) const {
     if (pid_ > 0 && !exit_code_) ::kill(pid_, number);
   }

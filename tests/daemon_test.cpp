@@ -4,14 +4,15 @@
 
 #include <gtest/gtest.h>
 
-#include "daemon_process.h"
+#include "child_process.h"
 #include "notify_listener.h"
+#include "sim_room_config.h"
 
 namespace occmap {
 namespace {
 
 using namespace std::chrono_literals;
-using testing::DaemonProcess;
+using testing::ChildProcess;
 using testing::NotifyListener;
 using testing::runCommand;
 using testing::TemporaryFolder;
@@ -37,10 +38,9 @@ TEST(Occmapd, TellsSystemdReadyStatusWatchdogAndStoppingAndStopsWithinOneSecond)
   TemporaryFolder folder;
   const auto config = folder.write("room.yaml", testing::simRoomConfig());
   NotifyListener systemd(folder / "notify");
-  DaemonProcess daemon({kOccmapd, "--config", config.string()},
-                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}},
-                       folder / "stderr");
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.log();
+  ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "daemon",
+                      {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}});
+  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
   systemd.collect(3s);
   EXPECT_GE(systemd.count("WATCHDOG=1"), 4u) << "pings every 0.5 s while fusion makes maps";
   EXPECT_GE(systemd.count("STATUS="), 1u);
@@ -49,23 +49,22 @@ TEST(Occmapd, TellsSystemdReadyStatusWatchdogAndStoppingAndStopsWithinOneSecond)
   const auto code = daemon.waitExit(3s);
   const auto took = std::chrono::steady_clock::now() - stop;
   ASSERT_TRUE(code) << "still running 3 s after SIGTERM";
-  EXPECT_EQ(*code, 0) << daemon.log();
+  EXPECT_EQ(*code, 0) << daemon.err();
   EXPECT_LT(took, 1s) << "a clean stop takes under a second";
   systemd.collect(200ms);
   EXPECT_EQ(systemd.count("STOPPING=1"), 1u);
-  EXPECT_NE(daemon.log().find("stopped after"), std::string::npos) << daemon.log();
+  EXPECT_NE(daemon.err().find("stopped after"), std::string::npos) << daemon.err();
 }
 
 TEST(Occmapd, AStalledFusionStopsTheWatchdogPings) {
   TemporaryFolder folder;
   const auto config = folder.write("room.yaml", testing::simRoomConfig());
   NotifyListener systemd(folder / "notify");
-  DaemonProcess daemon({kOccmapd, "--config", config.string()},
-                       {{"NOTIFY_SOCKET", systemd.path().string()},
-                        {"WATCHDOG_USEC", "1000000"},
-                        {"OCCMAP_TEST_STALL_FUSION_AFTER_MAPS", "40"}},
-                       folder / "stderr");
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.log();
+  ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "daemon",
+                      {{"NOTIFY_SOCKET", systemd.path().string()},
+                       {"WATCHDOG_USEC", "1000000"},
+                       {"OCCMAP_TEST_STALL_FUSION_AFTER_MAPS", "40"}});
+  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
   systemd.collect(5s);
   std::vector<std::chrono::steady_clock::time_point> pings;
   for (const auto& message : systemd.messages()) {
@@ -84,28 +83,27 @@ TEST(Occmapd, ReloadsOnSighupAndKeepsTheOldConfigWhenTheNewOneIsInvalid) {
   TemporaryFolder folder;
   const auto config = folder.write("room.yaml", testing::simRoomConfig());
   NotifyListener systemd(folder / "notify");
-  DaemonProcess daemon({kOccmapd, "--config", config.string()},
-                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}},
-                       folder / "stderr");
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.log();
+  ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "daemon",
+                      {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}});
+  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
   // A broken config: reported, and the daemon goes on with the old one.
   folder.write("room.yaml", testing::simRoomConfig() + "fusion_typo: {}\n");
   daemon.signal(SIGHUP);
-  ASSERT_TRUE(systemd.collect(10s, "READY=1")) << daemon.log();
+  ASSERT_TRUE(systemd.collect(10s, "READY=1")) << daemon.err();
   EXPECT_EQ(systemd.count("RELOADING=1"), 1u);
-  EXPECT_NE(daemon.log().find("reload refused"), std::string::npos) << daemon.log();
-  EXPECT_NE(daemon.log().find("fusion_typo"), std::string::npos) << daemon.log();
+  EXPECT_NE(daemon.err().find("reload refused"), std::string::npos) << daemon.err();
+  EXPECT_NE(daemon.err().find("fusion_typo"), std::string::npos) << daemon.err();
   const std::size_t pings_before = systemd.count("WATCHDOG=1");
   systemd.collect(1500ms);
   EXPECT_GT(systemd.count("WATCHDOG=1"), pings_before) << "fusion must go on with the old config";
   // A valid new config: applied.
   folder.write("room.yaml", testing::simRoomConfig("memq://", ", max_wait_ms: 20"));
   daemon.signal(SIGHUP);
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.log();
-  EXPECT_NE(daemon.log().find("reloaded"), std::string::npos) << daemon.log();
+  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
+  EXPECT_NE(daemon.err().find("reloaded"), std::string::npos) << daemon.err();
   EXPECT_TRUE(daemon.running());
   daemon.signal(SIGTERM);
-  EXPECT_EQ(daemon.waitExit(3s), 0) << daemon.log();
+  EXPECT_EQ(daemon.waitExit(3s), 0) << daemon.err();
 }
 
 }  // namespace

@@ -7,10 +7,10 @@
 
 #include <gtest/gtest.h>
 
-#include "capture/sim/renderer.h"
-#include "core/reference_fusion.h"
 #include "daemon/config.h"
-#include "daemon_process.h"
+#include "sim_reference.h"
+#include "sim_room_config.h"
+#include "temporary_folder.h"
 #include "transport/map_codec.h"
 
 namespace occmap {
@@ -24,7 +24,6 @@ TEST(Pipeline, MapsArriveInOrderAndEqualTheReferenceFusionOfTheirFrames) {
   const Config config = loadConfig(file);
   Rig rig = Rig::open(config);
   std::vector<CarveTable> tables = rig.buildTables(0.0);
-  const std::vector<CarveTable> reference_tables = tables;
 
   std::mutex mutex;
   std::vector<DecodedMap> received;
@@ -42,12 +41,18 @@ TEST(Pipeline, MapsArriveInOrderAndEqualTheReferenceFusionOfTheirFrames) {
                                    }});
   Pipeline pipeline(std::move(rig), std::move(tables), options);
   pipeline.start();
-  std::this_thread::sleep_for(std::chrono::seconds(3));
+  // About a second at full speed; sanitizers slow the simulator down, so wait for the maps.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::lock_guard lock(mutex);
+    if (received.size() >= 40) break;
+  }
   pipeline.stop();
 
   std::lock_guard lock(mutex);
   EXPECT_EQ(undecodable, 0u);
-  ASSERT_GE(received.size(), 45u) << "four 30 fps cameras for 3 s should give about 90 maps";
+  ASSERT_GE(received.size(), 40u) << "four 30 fps cameras should give 30 maps a second";
   // In process nothing is lost: every map the publisher numbered arrives, in order.
   EXPECT_EQ(received.front().seq, 0);
   for (std::size_t i = 1; i < received.size(); ++i) {
@@ -66,40 +71,15 @@ TEST(Pipeline, MapsArriveInOrderAndEqualTheReferenceFusionOfTheirFrames) {
   EXPECT_EQ(pipeline.mapsPublished(), received.size());
 
   // Re-render exactly the frames each map says it used, and fuse them the reference way.
-  const auto scene = sim::makeScene("room");
-  std::vector<std::unique_ptr<sim::Renderer>> renderers;
-  for (std::size_t k = 0; k < 4; ++k) {
-    renderers.push_back(std::make_unique<sim::Renderer>(
-        *scene,
-        Camera(std::make_shared<TsaiCamera>(scene->cameras()[k].calibration),
-               LengthUnit::kMillimetre, 640, 480),
-        static_cast<int>(k)));
-  }
+  const testing::SimRoomReference reference(config.map, 0.0);
   std::size_t compared = 0, all_cameras = 0;
-  for (std::size_t i = 0; i < received.size(); i += 7) {
+  for (std::size_t i = 0; i < received.size(); i += 5) {
     const DecodedMap& map = received[i];
     ASSERT_EQ(map.cameras.size(), 4u);
-    std::vector<Image> live(4);
-    std::vector<CameraFrame> frames;
-    std::size_t used = 0;
-    for (std::size_t k = 0; k < 4; ++k) {
-      const DecodedCamera& camera = map.cameras[k];
-      if (camera.used) {
-        const auto n = static_cast<std::uint64_t>(camera.sequence);
-        renderers[k]->render(scene->objectsAt(static_cast<double>(n) / 30.0), n, live[k]);
-        ++used;
-      }
-      frames.push_back({&reference_tables[k], camera.used ? live[k].view() : ImageView{},
-                        renderers[k]->background().view(), 20});
-    }
-    const OccupancyMap expected = fuseReference(config.map, frames);
-    ASSERT_EQ(map.cells.size(), expected.cells.size());
-    for (std::size_t cell = 0; cell < expected.cells.size(); ++cell) {
-      ASSERT_EQ(map.cells[cell], static_cast<std::uint8_t>(expected.cells[cell]))
-          << "map " << map.seq << " cell " << cell;
-    }
+    ASSERT_EQ(reference.firstDifference(map), -1) << "map " << map.seq;
     ++compared;
-    all_cameras += used == 4 ? 1 : 0;
+    all_cameras += std::count_if(map.cameras.begin(), map.cameras.end(),
+                                 [](const DecodedCamera& c) { return c.used; }) == 4;
   }
   EXPECT_GE(compared, 6u);
   EXPECT_GE(all_cameras, compared / 2) << "most maps should fuse all four cameras";

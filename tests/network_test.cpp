@@ -1,0 +1,187 @@
+// occmapd on a real network, made by the test itself (nothing leaves it): UDP multicast on a
+// private loopback at 30 maps/s with nothing lost, a second "machine" behind a veth pair, and LCM's
+// own logger as a client whose recording must hold exactly the maps the pipeline made.
+#include <fstream>
+#include <optional>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include "child_process.h"
+#include "network_namespace.h"
+#include "notify_listener.h"
+#include "sim_reference.h"
+#include "sim_room_config.h"
+
+namespace occmap {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::ChildProcess;
+using testing::NotifyListener;
+using testing::runCommand;
+using testing::TemporaryFolder;
+
+const std::string kOccmapd = OCCMAP_BINARY_DIR "/daemon/occmapd";
+const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
+const std::string kUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+// The number after `label` in `text` ("received 300 maps" -> 300), or -1.
+long long numberAfter(const std::string& text, const std::string& label) {
+  const std::size_t at = text.find(label);
+  if (at == std::string::npos) return -1;
+  return std::atoll(text.c_str() + at + label.size());
+}
+
+// occmapd started in this process's network.
+struct RunningDaemon {
+  std::optional<NotifyListener> systemd;
+  ChildProcess process;
+  RunningDaemon(const TemporaryFolder& folder, const std::string& config_text)
+      : systemd(std::in_place, folder / "notify"),
+        process({kOccmapd, "--config", folder.write("occmapd.yaml", config_text).string()},
+                folder / "occmapd", {{"NOTIFY_SOCKET", (folder / "notify").string()}}) {}
+  // Waits for READY=1 (every camera streaming), then stops listening: a notify socket nobody reads
+  // fills up after ten messages and would block the daemon's sd_notify (systemd always reads).
+  bool ready() {
+    const bool ready = systemd->collect(30s, "READY=1");
+    systemd.reset();
+    return ready;
+  }
+  int stop() {
+    process.signal(SIGTERM);
+    return process.waitExit(5s).value_or(-100);
+  }
+};
+
+TEST(Network, MulticastCarriesThirtyMapsASecondForTenSecondsWithNoneLost) {
+  if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+    GTEST_SKIP() << problem;
+  }
+  // Default receive buffers (no recv_buf_size in the URL), the zstd encoding, the default map.
+  TemporaryFolder folder;
+  std::string config = testing::simRoomConfig(kUrl);
+  config.replace(config.find("cell_size_m: 0.04, width: 256, height: 256"), 42,
+                 "cell_size_m: 0.02, width: 512, height: 512");
+  RunningDaemon daemon(folder, config);
+  ASSERT_TRUE(daemon.ready()) << daemon.process.err();
+  const auto view = runCommand({kOccmap, "view", "--lcm-url", kUrl, "--count", "300", "--timeout",
+                                "5", "--png", (folder / "last.png").string()});
+  ASSERT_EQ(view.exit_code, 0) << view.out << view.err;
+  std::printf("%s", view.out.substr(view.out.find("summary:")).c_str());
+  EXPECT_EQ(numberAfter(view.out, "summary: received "), 300) << view.out;
+  EXPECT_EQ(numberAfter(view.out, ", lost "), 0) << view.out;
+  EXPECT_EQ(numberAfter(view.out, "undecodable "), 0) << view.out;
+  // 300 maps at 30 maps/s: about ten seconds, so the rate held.
+  const std::size_t at = view.out.find(" maps in ");
+  ASSERT_NE(at, std::string::npos);
+  const double seconds = std::atof(view.out.c_str() + at + 9);
+  EXPECT_LT(seconds, 11.0) << "fewer than 27 maps a second";
+  EXPECT_TRUE(std::filesystem::exists(folder / "last.png"));
+  // The daemon's own account agrees: no frame dropped on the way to fusion.
+  const auto status = runCommand({kOccmap, "status", "--lcm-url", kUrl, "--json"});
+  ASSERT_EQ(status.exit_code, 0) << status.err;
+  EXPECT_EQ(status.out.find("\"frames_dropped\":1"), std::string::npos) << status.out;
+  EXPECT_NE(status.out.find("\"frames_dropped\":0"), std::string::npos) << status.out;
+  EXPECT_EQ(daemon.stop(), 0) << daemon.process.err();
+}
+
+TEST(Network, ASecondMachineBehindAVethPairReceivesTheMaps) {
+  if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+    GTEST_SKIP() << problem;
+  }
+  if (runCommand({"sh", "-c", "command -v ip"}).exit_code != 0) {
+    GTEST_SKIP() << "no `ip` command (Debian package iproute2) to make the veth pair";
+  }
+  // This process's private network is machine A; machine B is a network namespace of its own,
+  // joined to A by a veth pair with the multicast route on it, as two hosts on one cable.
+  auto ip = [](const std::string& arguments) {
+    const auto result = runCommand({"sh", "-c", "ip " + arguments});
+    EXPECT_EQ(result.exit_code, 0) << "ip " << arguments << ": " << result.err;
+  };
+  ip("link add occmap-a type veth peer name occmap-b");
+  ip("addr add 10.231.0.1/24 dev occmap-a");
+  ip("link set occmap-a up");
+  ip("route replace 224.0.0.0/4 dev occmap-a");
+  TemporaryFolder folder;
+  const std::string url = "udpm://239.255.76.67:7667?ttl=1";  // ttl=0 would never leave A
+  const std::string machine_b =
+      "until ip link show occmap-b >/dev/null 2>&1; do sleep 0.02; done; "
+      "ip link set lo up && ip addr add 10.231.0.2/24 dev occmap-b && ip link set occmap-b up && "
+      "ip route add 224.0.0.0/4 dev occmap-b && "
+      "exec " +
+      kOccmap + " view --lcm-url '" + url + "' --count 60 --timeout 30";
+  ChildProcess viewer({"/usr/bin/unshare", "--net", "sh", "-c", machine_b}, folder / "viewer");
+  // Move B's end of the cable once the viewer is in its own namespace.
+  const auto own = std::filesystem::read_symlink("/proc/self/ns/net");
+  const auto viewer_ns = "/proc/" + std::to_string(viewer.pid()) + "/ns/net";
+  for (int i = 0; i < 500; ++i) {
+    std::error_code error;
+    const auto ns = std::filesystem::read_symlink(viewer_ns, error);
+    if (!error && ns != own) break;
+    std::this_thread::sleep_for(10ms);
+  }
+  ip("link set occmap-b netns " + std::to_string(viewer.pid()));
+  RunningDaemon daemon(folder, testing::simRoomConfig(url));
+  ASSERT_TRUE(daemon.ready()) << daemon.process.err();
+  const auto code = viewer.waitExit(60s);
+  ASSERT_TRUE(code) << "the viewer on machine B got no maps:\n" << viewer.out() << viewer.err();
+  EXPECT_EQ(*code, 0) << viewer.out() << viewer.err();
+  EXPECT_EQ(numberAfter(viewer.out(), "summary: received "), 60) << viewer.out();
+  EXPECT_EQ(numberAfter(viewer.out(), ", lost "), 0) << viewer.out();
+  EXPECT_EQ(daemon.stop(), 0);
+  // B's namespace ended with the viewer and took the pair with it; multicast goes back to lo.
+  runCommand({"sh", "-c", "ip link del occmap-a 2>/dev/null"});
+  ip("route replace 224.0.0.0/4 dev lo");
+}
+
+TEST(Network, LcmLoggerRecordsExactlyTheMapsThePipelineMade) {
+  if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+    GTEST_SKIP() << problem;
+  }
+  TemporaryFolder folder;
+  RunningDaemon daemon(folder, testing::simRoomConfig(kUrl));
+  ASSERT_TRUE(daemon.ready()) << daemon.process.err();
+  const auto log = folder / "occmap.lcmlog";
+  ChildProcess logger({"/usr/bin/lcm-logger", "--lcm-url=" + kUrl, "-q", "-f", log.string()},
+                      folder / "logger");
+  std::this_thread::sleep_for(3s);
+  logger.signal(SIGINT);
+  ASSERT_TRUE(logger.waitExit(5s)) << logger.err();
+  EXPECT_EQ(daemon.stop(), 0);
+
+  // Read the recording with LCM's own log reader and check every map in it.
+  lcm::LogFile file(log.string(), "r");
+  ASSERT_TRUE(file.good()) << "lcm-logger wrote no readable log";
+  // simRoomConfig's map: 256 x 256 cells of 4 cm from (-0.62, -1.87), floor carving.
+  const testing::SimRoomReference reference(MapGeometry{-0.62, -1.87, 0.04, 256, 256}, 0.0);
+  MapDecoder decoder;
+  std::int64_t previous = -1;
+  int maps = 0, statuses = 0, checked = 0;
+  while (const lcm::LogEvent* event = file.readNextEvent()) {
+    if (event->channel == "OCCMAP_STATUS") ++statuses;
+    if (event->channel != "OCCMAP_MAP") continue;
+    const DecodedMap& map = decoder.decode(event->data, static_cast<std::size_t>(event->datalen));
+    ASSERT_TRUE(map.ok()) << map.error;
+    EXPECT_EQ(map.geometry.width, 256);
+    EXPECT_EQ(map.geometry.cell_size_m, 0.04);
+    ASSERT_EQ(map.cameras.size(), 4u);
+    EXPECT_EQ(map.cameras[2].name, "c2");
+    if (previous >= 0) {
+      EXPECT_EQ(map.seq, previous + 1) << "the logger missed a map";
+    }
+    previous = map.seq;
+    if (maps++ % 10 == 0) {
+      EXPECT_EQ(reference.firstDifference(map), -1) << "map " << map.seq;
+      ++checked;
+    }
+  }
+  std::printf("lcm-logger recorded %d maps and %d statuses; %d maps checked cell by cell\n", maps,
+              statuses, checked);
+  EXPECT_GE(maps, 60) << "3 s at 30 maps/s";
+  EXPECT_GE(statuses, 2);
+}
+
+}  // namespace
+}  // namespace occmap

@@ -1,0 +1,26 @@
+#pragma once
+// Configs for tests of the live daemon.
+
+#include <string>
+
+namespace occmap::testing {
+
+// A small simulated rig for daemon tests: the paper's room, four cameras, a 256 x 256 map of 4 cm
+// cells (fast to build), LCM in process memory unless told otherwise.
+inline std::string simRoomConfig(const std::string& lcm_url = "memq://",
+                                 const std::string& extra_fusion = "") {
+  return "map: {origin_m: [-0.62, -1.87], cell_size_m: 0.04, width: 256, height: 256}\n"
+         "fusion: {threshold: 20, column_height_m: 0" +
+         extra_fusion +
+         "}\n"
+         "transport: {lcm_url: \"" +
+         lcm_url +
+         "\"}\n"
+         "cameras:\n"
+         "  - {name: c0, source: \"sim://room/c0\"}\n"
+         "  - {name: c1, source: \"sim://room/c1\"}\n"
+         "  - {name: c2, source: \"sim://room/c2\"}\n"
+         "  - {name: c3, source: \"sim://room/c3\"}\n";
+}
+
+}  // namespace occmap::testing
