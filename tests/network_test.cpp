@@ -27,6 +27,13 @@ const std::string kOccmapd = OCCMAP_BINARY_DIR "/daemon/occmapd";
 const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
 const std::string kUrl = "udpm://239.255.76.67:7667?ttl=0";
 
+// Sanitizers slow the simulator several times over: there the rates are not what is under test.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+
 // The number after `label` in `text` ("received 300 maps" -> 300), or -1.
 long long numberAfter(const std::string& text, const std::string& label) {
   const std::size_t at = text.find(label);
@@ -77,7 +84,9 @@ TEST(Network, MulticastCarriesThirtyMapsASecondForTenSecondsWithNoneLost) {
   const std::size_t at = view.out.find(" maps in ");
   ASSERT_NE(at, std::string::npos);
   const double seconds = std::atof(view.out.c_str() + at + 9);
-  EXPECT_LT(seconds, 11.0) << "fewer than 27 maps a second";
+  if (!kSanitized) {
+    EXPECT_LT(seconds, 11.0) << "fewer than 27 maps a second";
+  }
   EXPECT_TRUE(std::filesystem::exists(folder / "last.png"));
   // The daemon's own account agrees: no frame dropped on the way to fusion.
   const auto status = runCommand({kOccmap, "status", "--lcm-url", kUrl, "--json"});
@@ -179,7 +188,7 @@ TEST(Network, LcmLoggerRecordsExactlyTheMapsThePipelineMade) {
   }
   std::printf("lcm-logger recorded %d maps and %d statuses; %d maps checked cell by cell\n", maps,
               statuses, checked);
-  EXPECT_GE(maps, 60) << "3 s at 30 maps/s";
+  EXPECT_GE(maps, kSanitized ? 20 : 60) << "3 s at 30 maps/s";
   EXPECT_GE(statuses, 2);
 }
 
