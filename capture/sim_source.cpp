@@ -14,7 +14,10 @@ SimSource::SimSource(std::shared_ptr<const sim::Scene> scene, Camera camera, int
 FrameSource::Status SimSource::read(Frame& frame) {
   if (next_ - first_of_loop_ >= frame_count_) return Status::kEnd;
   last_time_ = static_cast<double>(next_ - first_of_loop_) / fps_;
-  renderer_.render(scene_->objectsAt(last_time_), next_, current_);
+  scene_->objectsAt(last_time_, objects_);
+  if (current_.width() != width() || current_.height() != height())
+    current_ = Image(width(), height());
+  renderer_.render(objects_, next_, current_, depth_);
   frame.image = current_.view();
   frame.sequence = next_++;
   frame.capture_time_us = hostTimeMicroseconds();

@@ -39,6 +39,8 @@ class SimSource final : public FrameSource {
   std::uint64_t first_of_loop_ = 0;
   double last_time_ = 0;
   Image current_;
+  std::vector<sim::SceneObject> objects_;  // reused frame to frame
+  std::vector<float> depth_;
 };
 
 }  // namespace occmap

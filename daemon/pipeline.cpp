@@ -187,6 +187,7 @@ void Pipeline::captureLoop(std::size_t k) {
       counters.frames_dropped.fetch_add(1, std::memory_order_relaxed);
       std::uint64_t suppressed = 0;
       if (error_warnings.allow(suppressed)) {
+        counters.setLastError(source.lastError());
         logLine(LogLevel::kWarning, "camera %s: %s (%llu more like this not shown)",
                 camera.name.c_str(), source.lastError().c_str(),
                 static_cast<unsigned long long>(suppressed));
@@ -261,9 +262,11 @@ void Pipeline::fusionLoop() {
       }
       if (counters.state.exchange(state, std::memory_order_relaxed) != state &&
           state == CameraState::kDown) {
-        logLine(LogLevel::kWarning, "camera %s is down: no frame for %.1f s",
-                rig_.cameras()[k].name.c_str(),
-                static_cast<double>(now - (last == 0 ? start_ns_ : last)) / 1e9);
+        char why[96];
+        std::snprintf(why, sizeof why, "no frame for %.1f s",
+                      static_cast<double>(now - (last == 0 ? start_ns_ : last)) / 1e9);
+        counters.setLastError(why);
+        logLine(LogLevel::kWarning, "camera %s is down: %s", rig_.cameras()[k].name.c_str(), why);
       }
       any_fresh = any_fresh || held.fresh;
       if (state != CameraState::kDown && !held.fresh) all_fresh = false;
@@ -395,6 +398,13 @@ void Pipeline::lcmLoop() {
           static_cast<std::int64_t>(c.frames_dropped.load(std::memory_order_relaxed));
       s.fps = static_cast<double>(frames - oldest.frames[k]) / window_s;
       s.last_capture_utime = c.last_capture_us.load(std::memory_order_relaxed);
+      // The transport counters of live cameras come with their backends; none for files and sim.
+      s.frames_incomplete = 0;
+      s.missing_packets = 0;
+      s.resent_packets = 0;
+      s.underruns = 0;
+      s.reconnects = 0;
+      s.last_error = counters_[k]->lastError();
     }
     if (request_id < 0) {
       Sample sample{now, published, {}};

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <utility>
@@ -89,6 +90,17 @@ class Pipeline {
     std::atomic<std::int64_t> last_capture_us{0};
     std::atomic<std::int64_t> last_frame_ns{0};  // monotonic; 0 before the first frame
     std::atomic<CameraState> state{CameraState::kStarting};
+    // Why the camera last failed: written on error paths only (never per frame), hence a mutex.
+    void setLastError(std::string text) {
+      std::lock_guard lock(error_mutex);
+      last_error = std::move(text);
+    }
+    std::string lastError() {
+      std::lock_guard lock(error_mutex);
+      return last_error;
+    }
+    std::mutex error_mutex;
+    std::string last_error;
   };
   // Fusion time histogram: one writer (fusion), one reader (status).
   struct FusionTimes {

@@ -87,5 +87,21 @@ TEST(SystemdUnit, SysusersAndTmpfilesMakeTheUserAndItsFolders) {
   EXPECT_TRUE(std::filesystem::is_directory(root / "var/lib/occmap"));
 }
 
+TEST(Install, PutsTheProgramsUnitAndSnippetsInPlace) {
+  TemporaryFolder prefix;
+  const auto result =
+      runCommand({"cmake", "--install", OCCMAP_BINARY_DIR, "--prefix", prefix.path().string()});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  for (const char* file : {"bin/occmapd", "bin/occmap", "lib/systemd/system/occmapd.service",
+                           "lib/sysusers.d/occmap.conf", "lib/tmpfiles.d/occmap.conf",
+                           "share/occmap/examples/sim-room.yaml"}) {
+    EXPECT_TRUE(std::filesystem::exists(prefix / file)) << file << " not installed";
+  }
+  const std::string unit = readWhole(prefix / "lib/systemd/system/occmapd.service");
+  EXPECT_NE(unit.find("/bin/occmapd --config /etc/occmap/occmapd.yaml"), std::string::npos) << unit;
+  EXPECT_EQ(unit.find("@CMAKE_"), std::string::npos) << "an unconfigured @VARIABLE@ is left:\n"
+                                                     << unit;
+}
+
 }  // namespace
 }  // namespace occmap

@@ -123,6 +123,16 @@ std::string formatStatusTable(const occmap::status_t& s) {
                    age(s.utime, c.last_capture_utime).c_str());
   }
   if (s.cameras.empty()) text += "(no cameras)\n";
+  for (const auto& c : s.cameras) {
+    if (c.frames_incomplete || c.missing_packets || c.resent_packets || c.underruns ||
+        c.reconnects) {
+      text += format("%s: %" PRId64 " incomplete frames, %" PRId64 " packets missing, %" PRId64
+                     " resent, %" PRId64 " underruns, %d reconnects\n",
+                     c.name.c_str(), c.frames_incomplete, c.missing_packets, c.resent_packets,
+                     c.underruns, c.reconnects);
+    }
+    if (!c.last_error.empty()) text += c.name + ": last error: " + c.last_error + "\n";
+  }
   return text;
 }
 
@@ -151,7 +161,13 @@ std::string formatStatusJson(const occmap::status_t& s) {
     j += ",\"frames_in\":" + jsonNumber(c.frames_in);
     j += ",\"frames_dropped\":" + jsonNumber(c.frames_dropped);
     j += ",\"fps\":" + jsonNumber(c.fps);
-    j += ",\"last_capture_utime\":" + jsonNumber(c.last_capture_utime) + "}";
+    j += ",\"last_capture_utime\":" + jsonNumber(c.last_capture_utime);
+    j += ",\"frames_incomplete\":" + jsonNumber(c.frames_incomplete);
+    j += ",\"missing_packets\":" + jsonNumber(c.missing_packets);
+    j += ",\"resent_packets\":" + jsonNumber(c.resent_packets);
+    j += ",\"underruns\":" + jsonNumber(c.underruns);
+    j += ",\"reconnects\":" + jsonNumber(std::int64_t{c.reconnects});
+    j += ",\"last_error\":" + jsonString(c.last_error) + "}";
   }
   return j + "]}";
 }

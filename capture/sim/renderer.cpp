@@ -86,12 +86,26 @@ Renderer::PixelBounds Renderer::projectedBounds(const Solid& solid) const {
 
 void Renderer::render(const std::vector<SceneObject>& objects, std::uint64_t frame_number,
                       Image& out, Image* object_pixels) const {
+  std::vector<float> depth;
+  render(objects, frame_number, out, depth, object_pixels);
+}
+
+void Renderer::render(const std::vector<SceneObject>& objects, std::uint64_t frame_number,
+                      Image& out, std::vector<float>& depth, Image* object_pixels) const {
   const int width = camera_.streamWidth();
   const int height = camera_.streamHeight();
   if (out.width() != width || out.height() != height) out = Image(width, height);
   std::copy(background_.data(), background_.data() + directions_.size(), out.data());
   if (object_pixels) *object_pixels = Image(width, height, 0);
-  std::vector<float> depth;  // nearest object so far, only where objects are drawn
+  // Nearest object so far, per pixel; reset where this frame's objects may draw.
+  if (depth.size() != directions_.size()) depth.resize(directions_.size());
+  for (const SceneObject& object : objects) {
+    const PixelBounds bounds = projectedBounds(object.solid);
+    for (int v = bounds.v0; v <= bounds.v1; ++v) {
+      std::fill_n(depth.begin() + v * width + bounds.u0, bounds.u1 - bounds.u0 + 1,
+                  std::numeric_limits<float>::max());
+    }
+  }
   for (const SceneObject& object : objects) {
     const PixelBounds bounds = projectedBounds(object.solid);
     for (int v = bounds.v0; v <= bounds.v1; ++v) {
@@ -102,7 +116,6 @@ void Renderer::render(const std::vector<SceneObject>& objects, std::uint64_t fra
         const std::optional<Solid::Hit> hit =
             object.solid.intersect(centre_, direction, 1e-9, background_depth_[i]);
         if (!hit) continue;
-        if (depth.empty()) depth.assign(directions_.size(), std::numeric_limits<float>::max());
         if (static_cast<float>(hit->t) >= depth[i]) continue;
         depth[i] = static_cast<float>(hit->t);
         out.at(u, v) = toGrey(scene_.objectShade(object, centre_ + hit->t * direction));

@@ -30,6 +30,10 @@ class Renderer {
   // `object_pixels` is given it receives 1 where an object is seen and 0 elsewhere.
   void render(const std::vector<SceneObject>& objects, std::uint64_t frame_number, Image& out,
               Image* object_pixels = nullptr) const;
+  // The same with the caller's depth buffer, kept between frames so that a live source allocates
+  // nothing per frame (`out` too must already have the stream's size).
+  void render(const std::vector<SceneObject>& objects, std::uint64_t frame_number, Image& out,
+              std::vector<float>& depth, Image* object_pixels = nullptr) const;
 
   // Whether the camera has a clear view of the floor point: it projects into the stream's bounds,
   // and neither the room nor any object stands between it and the camera.

@@ -116,7 +116,8 @@ class RoomScene final : public Scene {
   double wallHeight() const override { return kWallHeight; }
   const std::vector<Solid>& furniture() const override { return furniture_; }
 
-  std::vector<SceneObject> objectsAt(double t) const override {
+  using Scene::objectsAt;
+  void objectsAt(double t, std::vector<SceneObject>& out) const override {
     constexpr double kTwoPi = 2.0 * std::numbers::pi;
     // People: about 0.5 m x 1.75 m, walking at 1 m/s or so.
     const double a = kTwoPi * t / 16.0;
@@ -128,7 +129,7 @@ class RoomScene final : public Scene {
     // A small robot circling in the corner by the door of the far wall.
     const double b = kTwoPi * t / 12.0;
     const Eigen::Vector2d robot(1.8 + 0.5 * std::cos(b), 5.1 + 0.5 * std::sin(b));
-    return {
+    out.assign({
         {ObjectKind::kPerson, cylinder(walker, 0.25, 1.75)},
         {ObjectKind::kPerson, cylinder(strider, 0.25, 1.70)},
         {ObjectKind::kChair,
@@ -136,7 +137,7 @@ class RoomScene final : public Scene {
         {ObjectKind::kChair,
          box(chair2.x() - 0.25, chair2.y() - 0.25, chair2.x() + 0.25, chair2.y() + 0.25, 0.9)},
         {ObjectKind::kRobot, cylinder(robot, 0.22, 0.35)},
-    };
+    });
   }
 
   double staticShade(const Eigen::Vector3d& p, const Eigen::Vector3d& normal) const override {

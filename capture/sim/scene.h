@@ -71,7 +71,13 @@ class Scene {
   virtual const std::vector<SceneCamera>& cameras() const = 0;
   // Scripted motion lasts this long; off-line sources end there, live ones loop.
   virtual double durationS() const = 0;
-  virtual std::vector<SceneObject> objectsAt(double t) const = 0;
+  // The objects at time t, written into `out` (its capacity is reused: no allocation per frame).
+  virtual void objectsAt(double t, std::vector<SceneObject>& out) const = 0;
+  std::vector<SceneObject> objectsAt(double t) const {
+    std::vector<SceneObject> out;
+    objectsAt(t, out);
+    return out;
+  }
 
   // Static geometry: the room's floor rectangle [0, size.x] x [0, size.y], its wall height, and the
   // furniture that never moves (part of the background).
