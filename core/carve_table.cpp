@@ -132,6 +132,43 @@ CarveTable buildFloorTable(const Camera& camera, const MapGeometry& map, ImageVi
   return fromEdges(CarveRule::kAnyPixel, camera, map, edges);
 }
 
+// The pixels of the image of the column over `centre`, from the floor up to steps * kColumnStepM.
+// The column's image is a curve (a straight line bent a little by the lens); it is followed through
+// knots projected exactly every knot_steps * kColumnStepM, where knot_steps depends only on the
+// cell (about a pixel between knots, 1 to 10 cm, so that chord and curve stay well within a
+// pixel of each other), and the last piece ends on its chord. A lower
+// column's path is therefore always a prefix of a higher one's, which keeps carving monotone.
+void walkColumn(const Camera& camera, const Eigen::Vector2d& centre, int steps,
+                std::vector<std::uint32_t>& out) {
+  const int width = camera.streamWidth();
+  const int height = camera.streamHeight();
+  auto project = [&](double z) { return camera.worldToStream({centre.x(), centre.y(), z}); };
+  const std::optional<Eigen::Vector2d> bottom = project(0.0);
+  forEachPixelOnSegment(*bottom, *bottom, width, height, out);
+  if (steps == 0) return;
+  // The column's image length near the floor sets this cell's knot spacing (about one pixel).
+  const std::optional<Eigen::Vector2d> probe = project(0.1);
+  int knot_steps = 1;
+  if (probe) {
+    const double pixels_per_step = (*probe - *bottom).norm() / 0.1 * kColumnStepM;
+    knot_steps = std::clamp(static_cast<int>(1.0 / std::max(pixels_per_step, 1e-9)), 1, 10);
+  }
+  Eigen::Vector2d previous = *bottom;
+  for (int knot = knot_steps;; knot += knot_steps) {
+    const std::optional<Eigen::Vector2d> next = project(knot * kColumnStepM);
+    // Where the column leaves the lens model's valid part, the rest of it cannot be checked.
+    if (!next) return;
+    if (knot >= steps) {
+      // The top lies on this chord: walk to it and stop.
+      const double fraction = static_cast<double>(steps - (knot - knot_steps)) / knot_steps;
+      forEachPixelOnSegment(previous, previous + (*next - previous) * fraction, width, height, out);
+      return;
+    }
+    forEachPixelOnSegment(previous, *next, width, height, out);
+    previous = *next;
+  }
+}
+
 CarveTable buildColumnTable(const Camera& camera, const MapGeometry& map, double column_height_m,
                             ImageView mask) {
   const int steps = static_cast<int>(std::ceil(column_height_m / kColumnStepM - 1e-9));
@@ -146,19 +183,7 @@ CarveTable buildColumnTable(const Camera& camera, const MapGeometry& map, double
       if (!centrePixel(camera, map, row, column, mask)) continue;
       const Eigen::Vector2d centre = map.cellCentre(row, column);
       column_pixels.clear();
-      std::optional<Eigen::Vector2d> previous =
-          camera.worldToStream(Eigen::Vector3d(centre.x(), centre.y(), 0.0));
-      forEachPixelOnSegment(*previous, *previous, camera.streamWidth(), camera.streamHeight(),
-                            column_pixels);
-      for (int k = 1; k <= steps; ++k) {
-        const std::optional<Eigen::Vector2d> next =
-            camera.worldToStream(Eigen::Vector3d(centre.x(), centre.y(), k * kColumnStepM));
-        // Where the column leaves the lens model's valid part, the rest of it cannot be checked.
-        if (!next) break;
-        forEachPixelOnSegment(*previous, *next, camera.streamWidth(), camera.streamHeight(),
-                              column_pixels);
-        previous = next;
-      }
+      walkColumn(camera, centre, steps, column_pixels);
       std::sort(column_pixels.begin(), column_pixels.end());
       const auto last = std::unique(column_pixels.begin(), column_pixels.end());
       pixels.insert(pixels.end(), column_pixels.begin(), last);

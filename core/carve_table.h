@@ -62,10 +62,10 @@ class CarveTable {
   std::vector<std::uint32_t> pixels_;
 };
 
-// Column carving samples the column at fixed heights k * kColumnStepM (k = 0 .. ceil(h / step)) and
-// takes every pixel the image of each piece between two samples crosses. Because the samples do not
-// depend on the height, a lower column's pixels are always a subset of a higher one's: carving is
-// monotone in column_height_m, and heights are honoured rounded up to the step.
+// Column carving follows the image of each cell's column from the floor up to ceil(h / step) * step
+// and takes every pixel it crosses; the knots it follows sit at heights that depend on the cell
+// only, never on h, so a lower column's pixels are always a subset of a higher one's: carving is
+// monotone in column_height_m, and heights are honoured rounded up to the step (1 cm).
 inline constexpr double kColumnStepM = 0.01;
 
 // `floor_mask`, if not empty, has the stream's size; non-zero marks floor pixels, the only ones
