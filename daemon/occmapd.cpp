@@ -30,11 +30,25 @@ struct Options {
   bool check = false;
 };
 
-// Everything a config makes before it can run: opened cameras and carve tables. Building this can
-// take seconds (column tables on large maps); on reload the old pipeline keeps running meanwhile.
-std::unique_ptr<Pipeline> buildPipeline(const std::string& file, const PipelineOptions& options) {
-  Config config = loadConfig(file);
-  Rig rig = Rig::open(config);
+// Everything a config makes before it can run: its rig and carve tables. Building this can take
+// seconds (column tables on large maps); on reload the old pipeline keeps running meanwhile, and
+// the live cameras are left closed (`open_live_cameras`) until it has stopped and let go of them.
+struct Prepared {
+  Rig rig;
+  std::vector<CarveTable> tables;
+};
+
+RigOptions rigOptions(bool open_live_cameras) {
+  RigOptions options;
+  options.open_live_cameras = open_live_cameras;
+  options.notice = [](const std::string& message) {
+    logLine(LogLevel::kNotice, "%s", message.c_str());
+  };
+  return options;
+}
+
+Prepared prepare(const Config& config, bool open_live_cameras) {
+  Rig rig = Rig::open(config, rigOptions(open_live_cameras));
   std::vector<CarveTable> tables = rig.buildTables(config.fusion.column_height_m);
   for (const std::string& warning : rig.warnings())
     logLine(LogLevel::kWarning, "%s", warning.c_str());
@@ -42,9 +56,34 @@ std::unique_ptr<Pipeline> buildPipeline(const std::string& file, const PipelineO
   for (const CarveTable& table : tables) cells += table.entries();
   logLine(LogLevel::kInfo,
           "%s: %zu cameras, map %dx%d of %.3g m cells, column %.3g m, %zu table entries",
-          file.c_str(), rig.cameras().size(), config.map.width, config.map.height,
+          config.file.c_str(), rig.cameras().size(), config.map.width, config.map.height,
           config.map.cell_size_m, config.fusion.column_height_m, cells);
-  return std::make_unique<Pipeline>(std::move(rig), std::move(tables), options);
+  return {std::move(rig), std::move(tables)};
+}
+
+// SIGHUP: the new config replaces the running one only once it is wholly valid. Its cameras are
+// checked and its tables built while the old pipeline runs; then the old one stops, hands over
+// every camera connection the new config leaves unchanged, and the new one starts. A camera that
+// refuses the new settings puts the old config back (and the error goes on to the caller). Only
+// when even the old config cannot be restored does `pipeline` end up empty.
+void reload(std::unique_ptr<Pipeline>& pipeline, const std::string& file,
+            const PipelineOptions& options) {
+  Prepared next = prepare(loadConfig(file), false);  // InputError: the old one runs on
+  pipeline->stop();
+  Rig old_rig = pipeline->takeRig();
+  std::vector<CarveTable> old_tables = pipeline->takeTables();
+  pipeline.reset();
+  try {
+    next.rig.openLiveCameras(&old_rig);
+    pipeline = std::make_unique<Pipeline>(std::move(next.rig), std::move(next.tables), options);
+  } catch (const std::exception&) {
+    old_rig.openLiveCameras(&next.rig);  // takes back what went over, reopens the rest
+    pipeline = std::make_unique<Pipeline>(std::move(old_rig), std::move(old_tables), options);
+    pipeline->start();
+    throw;
+  }
+  pipeline->start();
+  logLine(LogLevel::kNotice, "reloaded %s", file.c_str());
 }
 
 PipelineOptions optionsFromEnvironment(std::chrono::steady_clock::time_point start) {
@@ -60,10 +99,15 @@ PipelineOptions optionsFromEnvironment(std::chrono::steady_clock::time_point sta
 int run(const Options& options) {
   const auto start = std::chrono::steady_clock::now();
   if (options.check) {
+    // Live cameras are not opened: a running daemon holds them. Their settings are checked when
+    // occmapd opens them (a refused one is the same exit code 2 then).
     const Config config = loadConfig(options.config);
-    Rig rig = Rig::open(config);
-    std::printf("%s is valid: %zu cameras, map %dx%d\n", options.config.c_str(),
-                config.cameras.size(), config.map.width, config.map.height);
+    const Rig rig = Rig::open(config, rigOptions(false));
+    const auto live = std::count_if(rig.cameras().begin(), rig.cameras().end(),
+                                    [](const RigCamera& camera) { return camera.live; });
+    std::printf("%s is valid: %zu cameras, map %dx%d%s\n", options.config.c_str(),
+                config.cameras.size(), config.map.width, config.map.height,
+                live > 0 ? "; the cameras' own settings are checked when occmapd opens them" : "");
     return kExitOk;
   }
   // The signals this daemon acts on arrive through a signalfd in this thread; every other thread
@@ -79,7 +123,9 @@ int run(const Options& options) {
 
   ServiceNotifier notifier;
   const PipelineOptions pipeline_options = optionsFromEnvironment(start);
-  std::unique_ptr<Pipeline> pipeline = buildPipeline(options.config, pipeline_options);
+  Prepared prepared = prepare(loadConfig(options.config), true);
+  auto pipeline = std::make_unique<Pipeline>(std::move(prepared.rig), std::move(prepared.tables),
+                                             pipeline_options);
   pipeline->start();
   logLine(LogLevel::kNotice, "started with %s", options.config.c_str());
 
@@ -104,18 +150,16 @@ int run(const Options& options) {
           notifier.reloading();
           pipeline->setState(DaemonState::kReloading);
           try {
-            std::unique_ptr<Pipeline> next = buildPipeline(options.config, pipeline_options);
-            pipeline->stop();
-            pipeline = std::move(next);
-            pipeline->start();
+            reload(pipeline, options.config, pipeline_options);
             ready = false;
-            logLine(LogLevel::kNotice, "reloaded %s", options.config.c_str());
           } catch (const InputError& error) {
             logLine(LogLevel::kError, "reload refused, the running config stays: %s", error.what());
+            if (!pipeline) throw;  // not even the old config could be put back
             pipeline->setState(DaemonState::kRunning);
             notifier.ready();
           } catch (const std::exception& error) {
             logLine(LogLevel::kError, "reload failed, the running config stays: %s", error.what());
+            if (!pipeline) throw;
             pipeline->setState(DaemonState::kRunning);
             notifier.ready();
           }

@@ -169,6 +169,11 @@ void Pipeline::captureLoop(std::size_t k) {
   const auto period_ns = static_cast<std::int64_t>(1e9 / fps);
   std::int64_t next_ns = monotonicNs();
   RateLimit error_warnings(std::chrono::seconds(10));
+  const int ring_width = camera.background.width();
+  const int ring_height = camera.background.height();
+  bool lost = false;
+  std::int64_t retry_ns = 100'000'000;
+  std::int64_t next_retry_ns = 0;
   while (!stopping_.load(std::memory_order_relaxed)) {
     if (!source.isLive()) {
       // Recorded and simulated cameras run at their configured rate, as a camera would.
@@ -177,20 +182,57 @@ void Pipeline::captureLoop(std::size_t k) {
       const std::int64_t now = monotonicNs();
       if (next_ns < now - period_ns) next_ns = now;  // fell far behind: do not burst to catch up
     }
+    if (lost) {
+      // The camera is away: try to open it again, waiting longer after each failure (0.1 s up
+      // to 1 s: a try that finds nothing already takes a second of Aravis's discovery), in
+      // short sleeps so that a stop is noticed.
+      const std::int64_t now = monotonicNs();
+      if (now < next_retry_ns) {
+        sleepUntil(std::min(next_retry_ns, now + 100'000'000));
+        continue;
+      }
+      if (!source.reopen()) {
+        retry_ns = std::min<std::int64_t>(retry_ns * 2, 1'000'000'000);
+        next_retry_ns = monotonicNs() + retry_ns;
+        continue;
+      }
+      lost = false;
+      retry_ns = 100'000'000;
+      counters.reconnects.fetch_add(1, std::memory_order_relaxed);
+      counters.lost.store(false, std::memory_order_relaxed);
+      logLine(LogLevel::kNotice, "camera %s is back", camera.name.c_str());
+    }
     Frame frame;
     const FrameSource::Status status = source.read(frame);
+    if (status == FrameSource::Status::kTimeout) continue;
+    if (status == FrameSource::Status::kLost) {
+      lost = true;
+      next_retry_ns = monotonicNs() + retry_ns;
+      counters.lost.store(true, std::memory_order_relaxed);
+      counters.setLastError(source.lastError());
+      logLine(LogLevel::kWarning, "camera %s lost: %s; reconnecting", camera.name.c_str(),
+              source.lastError().c_str());
+      continue;
+    }
     if (status == FrameSource::Status::kEnd) {
       if (source.rewind()) continue;
       break;
     }
-    if (status == FrameSource::Status::kError) {
+    const bool wrong_size = status == FrameSource::Status::kFrame &&
+                            (frame.image.width != ring_width || frame.image.height != ring_height);
+    if (status == FrameSource::Status::kError || wrong_size) {
+      // A bad frame (corrupt, a device error, another size than the stream's): skip and count it.
       counters.frames_dropped.fetch_add(1, std::memory_order_relaxed);
       std::uint64_t suppressed = 0;
       if (error_warnings.allow(suppressed)) {
-        counters.setLastError(source.lastError());
-        logLine(LogLevel::kWarning, "camera %s: %s (%llu more like this not shown)",
-                camera.name.c_str(), source.lastError().c_str(),
-                static_cast<unsigned long long>(suppressed));
+        const std::string why =
+            wrong_size ? "a frame of " + std::to_string(frame.image.width) + "x" +
+                             std::to_string(frame.image.height) + " instead of " +
+                             std::to_string(ring_width) + "x" + std::to_string(ring_height)
+                       : source.lastError();
+        counters.setLastError(why);
+        logLine(LogLevel::kWarning, "camera %s: %s, dropped (%llu more like this not shown)",
+                camera.name.c_str(), why.c_str(), static_cast<unsigned long long>(suppressed));
       }
       continue;
     }
@@ -255,7 +297,9 @@ void Pipeline::fusionLoop() {
       CameraCounters& counters = *counters_[k];
       const std::int64_t last = counters.last_frame_ns.load(std::memory_order_relaxed);
       CameraState state = CameraState::kStreaming;
-      if (last == 0) {
+      if (counters.lost.load(std::memory_order_relaxed)) {
+        state = CameraState::kDown;  // the source said so: no need to wait for the silence
+      } else if (last == 0) {
         state = now - start_ns_ > start_timeout_ns ? CameraState::kDown : CameraState::kStarting;
       } else if (now - last > down_after_ns) {
         state = CameraState::kDown;
@@ -398,12 +442,12 @@ void Pipeline::lcmLoop() {
           static_cast<std::int64_t>(c.frames_dropped.load(std::memory_order_relaxed));
       s.fps = static_cast<double>(frames - oldest.frames[k]) / window_s;
       s.last_capture_utime = c.last_capture_us.load(std::memory_order_relaxed);
-      // The transport counters of live cameras come with their backends; none for files and sim.
-      s.frames_incomplete = 0;
-      s.missing_packets = 0;
-      s.resent_packets = 0;
-      s.underruns = 0;
-      s.reconnects = 0;
+      const TransportCounters transport_counters = rig_.cameras()[k].source->transportCounters();
+      s.frames_incomplete = transport_counters.frames_incomplete;
+      s.missing_packets = transport_counters.missing_packets;
+      s.resent_packets = transport_counters.resent_packets;
+      s.underruns = transport_counters.underruns;
+      s.reconnects = c.reconnects.load(std::memory_order_relaxed);
       s.last_error = counters_[k]->lastError();
     }
     if (request_id < 0) {

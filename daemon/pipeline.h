@@ -32,8 +32,9 @@ enum class DaemonState : std::uint8_t {
 struct PipelineOptions {
   std::chrono::steady_clock::time_point daemon_start = std::chrono::steady_clock::now();
   std::chrono::milliseconds status_period{1000};
-  // A streaming camera without a frame for this long is down (its cells become unseen).
-  std::chrono::milliseconds camera_down_after{1000};
+  // A streaming camera without a frame for this long is down (its cells become unseen); with the
+  // fusion thread's 100 ms wake-up that is within a second of its last frame.
+  std::chrono::milliseconds camera_down_after{900};
   // A camera that has not delivered its first frame this long after start is down.
   std::chrono::milliseconds camera_start_timeout{3000};
   // With no new frame set for this long, fusion still makes a map (cameras down: all unseen), so
@@ -74,6 +75,9 @@ class Pipeline {
   std::string summary() const;
   void setState(DaemonState state) { state_.store(state, std::memory_order_relaxed); }
   const Config& config() const { return rig_.config(); }
+  // After stop(): the rig (with its open cameras) and the tables, for a reload to take over.
+  Rig takeRig() { return std::move(rig_); }
+  std::vector<CarveTable> takeTables() { return std::move(tables_); }
 
  private:
   struct CapturedFrame {
@@ -90,6 +94,8 @@ class Pipeline {
     std::atomic<std::int64_t> last_capture_us{0};
     std::atomic<std::int64_t> last_frame_ns{0};  // monotonic; 0 before the first frame
     std::atomic<CameraState> state{CameraState::kStarting};
+    std::atomic<bool> lost{false};  // the source reported the device gone; reconnecting
+    std::atomic<std::int32_t> reconnects{0};
     // Why the camera last failed: written on error paths only (never per frame), hence a mutex.
     void setLastError(std::string text) {
       std::lock_guard lock(error_mutex);

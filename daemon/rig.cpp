@@ -4,6 +4,7 @@
 
 #include "capture/files_source.h"
 #include "capture/image_file.h"
+#include "capture/live_source.h"
 #include "capture/source_spec.h"
 #include "daemon/calibration_file.h"
 #include "daemon/input_error.h"
@@ -27,19 +28,23 @@ class CameraOpener {
         message);
   }
 
-  Image readImage(std::string_view key, const std::filesystem::path& file, int width,
-                  int height) const {
+  Image readAnyImage(std::string_view key, const std::filesystem::path& file) const {
     std::string error;
     std::optional<Image> image = readGreyImage(file, error);
     if (!image) fail(key, error);
-    if (image->width() != width || image->height() != height) {
+    return std::move(*image);
+  }
+
+  Image readImage(std::string_view key, const std::filesystem::path& file, int width,
+                  int height) const {
+    Image image = readAnyImage(key, file);
+    if (image.width() != width || image.height() != height) {
       fail(key, std::string(key) + " " + file.string() + " is " +
-                    sizeText(image->width(), image->height()) + " but camera '" + camera_.name +
+                    sizeText(image.width(), image.height()) + " but camera '" + camera_.name +
                     "' delivers " + sizeText(width, height) +
-                    " images; use an image of the "
-                    "stream's size");
+                    " images; use an image of the stream's size");
     }
-    return *image;
+    return image;
   }
 
   // The calibration's region of the stream, checked against the calibration frame.
@@ -63,8 +68,21 @@ class CameraOpener {
 
 }  // namespace
 
-Rig Rig::open(const Config& config) {
+Rig Rig::open(const Config& full_config, const RigOptions& options) {
+  Config config = full_config;
+  if (options.only_camera) {
+    std::string names;
+    std::erase_if(config.cameras, [&](const CameraConfig& camera) {
+      names += (names.empty() ? "" : ", ") + camera.name;
+      return camera.name != *options.only_camera;
+    });
+    if (config.cameras.empty()) {
+      throw InputError(config.file.string(), 0, "cameras",
+                       "no camera named '" + *options.only_camera + "'; the cameras are: " + names);
+    }
+  }
   Rig rig(config);
+  rig.notice_ = options.notice;
   for (std::size_t index = 0; index < config.cameras.size(); ++index) {
     const CameraConfig& entry = config.cameras[index];
     const CameraOpener opener(config, index);
@@ -140,19 +158,114 @@ Rig Rig::open(const Config& config) {
       const int height = files->height();
       camera.camera = std::make_unique<Camera>(calibration->model, calibration->units, width,
                                                height, opener.region(*calibration->model));
-      camera.background = opener.readImage("background", *entry.background, width, height);
+      if (options.read_backgrounds) {
+        camera.background = opener.readImage("background", *entry.background, width, height);
+      }
       if (entry.floor_mask) {
         camera.floor_mask = opener.readImage("floor_mask", *entry.floor_mask, width, height);
       }
       camera.source = std::move(files);
     } else {
-      opener.fail("source",
-                  "live camera sources (aravis://, v4l2://) are not in this build yet; "
-                  "use files:// or sim://");
+      // A live camera. Its background (the empty scene, taken with this camera) fixes the stream
+      // size the backend must deliver, so the geometry is known before the camera is opened.
+      camera.live = true;
+      if (options.read_backgrounds) {
+        camera.background = opener.readAnyImage("background", *entry.background);
+        camera.camera = std::make_unique<Camera>(
+            calibration->model, calibration->units, camera.background.width(),
+            camera.background.height(), opener.region(*calibration->model));
+        if (entry.floor_mask) {
+          camera.floor_mask =
+              opener.readImage("floor_mask", *entry.floor_mask, camera.background.width(),
+                               camera.background.height());
+        }
+      }
+      rig.cameras_.push_back(std::move(camera));
+      if (options.open_live_cameras) rig.openLiveCamera(index, *spec);
+      continue;
     }
     rig.cameras_.push_back(std::move(camera));
   }
   return rig;
+}
+
+void Rig::openLiveCamera(std::size_t index, const SourceSpec& spec) {
+  const CameraConfig& entry = config_.cameras[index];
+  const CameraOpener opener(config_, index);
+  RigCamera& camera = cameras_[index];
+  LiveSourceOptions live;
+  live.name = entry.name;
+  live.fps = entry.fps.value_or(0.0);
+  live.settings = entry.settings;
+  live.width = camera.background.width();  // 0 without a background: the camera's own size
+  live.height = camera.background.height();
+  live.notice = notice_;
+  std::string error;
+  std::unique_ptr<FrameSource> source = spec.kind == SourceSpec::Kind::kAravis
+                                            ? openAravisSource(spec.device, live, error)
+                                            : openV4l2Source(spec.device, live, error);
+  if (!source) opener.fail(entry.settings.empty() ? "source" : "settings", error);
+  const int width = source->width();
+  const int height = source->height();
+  if (!camera.background.empty() &&
+      (camera.background.width() != width || camera.background.height() != height)) {
+    opener.fail("background", "background " + entry.background->string() + " is " +
+                                  sizeText(camera.background.width(), camera.background.height()) +
+                                  " but the camera delivers " + sizeText(width, height));
+  }
+  if (!camera.camera) {
+    // Opened without its background (to make one): the geometry follows the camera.
+    const LoadedCalibration calibration = loadCalibration(*entry.calibration, entry.calibration_units);
+    camera.camera = std::make_unique<Camera>(calibration.model, calibration.units, width, height,
+                                             opener.region(*calibration.model));
+    if (entry.floor_mask) {
+      camera.floor_mask = opener.readImage("floor_mask", *entry.floor_mask, width, height);
+    }
+  }
+  camera.source = std::move(source);
+}
+
+namespace {
+
+// Two live cameras of two configs are the same connection when nothing the backend applies has
+// changed: source, settings, rate and size.
+bool sameConnection(const CameraConfig& a, const RigCamera& camera_a, const CameraConfig& b,
+                    const RigCamera& camera_b) {
+  return a.source == b.source && a.settings == b.settings && a.fps == b.fps &&
+         camera_a.background.width() == camera_b.background.width() &&
+         camera_a.background.height() == camera_b.background.height();
+}
+
+}  // namespace
+
+void Rig::openLiveCameras(Rig* previous) {
+  std::vector<bool> taken(cameras_.size(), false);
+  if (previous != nullptr) {
+    // Take over the unchanged connections, then close the rest of the previous rig's cameras
+    // before opening anything, so that a camera whose settings changed is free to reopen.
+    for (std::size_t k = 0; k < cameras_.size(); ++k) {
+      if (!cameras_[k].live || cameras_[k].source) continue;
+      for (std::size_t j = 0; j < previous->cameras_.size(); ++j) {
+        RigCamera& old = previous->cameras_[j];
+        if (old.live && old.source &&
+            sameConnection(config_.cameras[k], cameras_[k], previous->config_.cameras[j], old)) {
+          cameras_[k].source = std::move(old.source);
+          taken[k] = true;
+          break;
+        }
+      }
+    }
+    for (RigCamera& old : previous->cameras_) {
+      if (old.live) old.source.reset();
+    }
+  }
+  for (std::size_t k = 0; k < cameras_.size(); ++k) {
+    if (!cameras_[k].live || cameras_[k].source) continue;
+    std::string error;
+    const std::optional<SourceSpec> spec =
+        parseSource(config_.cameras[k].source, config_.file.parent_path(), error);
+    openLiveCamera(k, *spec);  // parsed once already by open()
+  }
 }
 
 const sim::Scene* Rig::commonScene() const {

@@ -262,6 +262,29 @@ TEST(OccmapFuse, SimulatedRoomIsScoredAgainstItsGroundTruth) {
   EXPECT_GT(picture.cols, 512);
 }
 
+TEST(OccmapBackground, TheMedianOfFramesDropsWhatPassesBy) {
+  FilesRig rig;
+  const std::string config = (rig.folder / "rig.yaml").string();
+  const auto out = rig.folder / "made-background.png";
+  auto result = runCommand({kOccmap, "background", "--config", config, "--camera", "down",
+                            "--frames", "3", "--out", out.string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("median of 3 frames"), std::string::npos) << result.out;
+  // Each frame's dark square lies elsewhere: every pixel's median is the empty scene's 120.
+  const cv::Mat made = cv::imread(out.string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(made.type(), CV_8UC1);
+  EXPECT_EQ(cv::countNonZero(made != 120), 0);
+  // Nothing is overwritten unasked; an unknown camera is named.
+  result = runCommand(
+      {kOccmap, "background", "--config", config, "--camera", "down", "--out", out.string()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--overwrite"), std::string::npos) << result.err;
+  result = runCommand({kOccmap, "background", "--config", config, "--camera", "left", "--out",
+                       (rig.folder / "x.png").string()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("no camera named 'left'"), std::string::npos) << result.err;
+}
+
 TEST(OccmapCoverage, DrawsWhichCamerasSeeEachCell) {
   TemporaryFolder folder;
   const auto result =

@@ -1,0 +1,267 @@
+// occmapd on four GigE Vision cameras: Aravis's arv-fake-gv-camera-0.8, one process per camera on
+// 127.0.0.1-4 (serials GV01-GV04), inside a private network namespace the test makes, with
+// examples/aravis-fake.yaml as the config. The cameras stream at 30 fps for ten seconds without a
+// failure counted; a camera killed mid-stream is marked down within a second while the maps go on
+// (its cells turning unseen), and once it is started again the daemon streams from it within 3 s.
+#include <occmap/status_request_t.hpp>
+#include <occmap/status_t.hpp>
+
+#include <algorithm>
+#include <array>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "child_process.h"
+#include "network_namespace.h"
+#include "notify_listener.h"
+#include "transport/lcm_bus.h"
+#include "transport/map_codec.h"
+
+namespace occmap {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::ChildProcess;
+using testing::NotifyListener;
+using testing::runCommand;
+using testing::TemporaryFolder;
+using Clock = std::chrono::steady_clock;
+
+const std::string kOccmapd = OCCMAP_BINARY_DIR "/daemon/occmapd";
+const std::string kConfig = OCCMAP_SOURCE_DIR "/examples/aravis-fake.yaml";
+const std::string kUrl = "udpm://239.255.76.67:7667?ttl=0";  // the example's (LCM's default)
+constexpr int kCameras = 4;
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kSanitized = true;  // rates and latencies are not what is under test there
+#else
+constexpr bool kSanitized = false;
+#endif
+
+std::string address(int k) { return "127.0.0." + std::to_string(k + 1); }
+std::string serial(int k) { return "GV0" + std::to_string(k + 1); }
+
+// What the test hears of the daemon on the bus: the newest status (asked for ten times a second)
+// and the newest map.
+class Listener {
+ public:
+  Listener() : bus_(kUrl) {
+    bus_.subscribe("OCCMAP_STATUS", [this](const std::uint8_t* data, std::size_t size, std::int64_t) {
+      occmap::status_t status;
+      if (status.decode(data, 0, static_cast<int>(size)) == static_cast<int>(size)) status_ = status;
+    });
+    bus_.subscribe("OCCMAP_MAP", [this](const std::uint8_t* data, std::size_t size, std::int64_t) {
+      const DecodedMap& map = decoder_.decode(data, size);
+      if (map.ok()) {
+        map_ = map;
+        ++maps_;
+      }
+    });
+  }
+  bool good() const { return bus_.good(); }
+
+  // Listens for `duration`, asking for the status every 100 ms, until `done` holds.
+  template <typename Done>
+  bool listen(std::chrono::milliseconds duration, Done done) {
+    const auto end = Clock::now() + duration;
+    auto next_request = Clock::now();
+    while (Clock::now() < end) {
+      if (Clock::now() >= next_request) {
+        occmap::status_request_t request{};
+        request.request_id = ++request_id_;
+        std::vector<std::uint8_t> bytes(static_cast<std::size_t>(request.getEncodedSize()));
+        request.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+        bus_.publish(statusRequestChannel("OCCMAP_STATUS"), bytes);
+        next_request = Clock::now() + 100ms;
+      }
+      bus_.handleTimeout(20);
+      if (done()) return true;
+    }
+    return false;
+  }
+  void listen(std::chrono::milliseconds duration) {
+    listen(duration, [] { return false; });
+  }
+
+  const std::optional<occmap::status_t>& status() const { return status_; }
+  const occmap::camera_status_t* camera(const std::string& name) const {
+    if (!status_) return nullptr;
+    for (const auto& c : status_->cameras)
+      if (c.name == name) return &c;
+    return nullptr;
+  }
+  const std::optional<DecodedMap>& map() const { return map_; }
+  std::size_t maps() const { return maps_; }
+
+ private:
+  LcmBus bus_;
+  MapDecoder decoder_;
+  std::optional<occmap::status_t> status_;
+  std::optional<DecodedMap> map_;
+  std::size_t maps_ = 0;
+  std::int64_t request_id_ = 0;
+};
+
+class FakeGigE : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::string(OCCMAP_ARV_FAKE_GV_CAMERA).find("NOTFOUND") != std::string::npos ||
+        !std::filesystem::exists(OCCMAP_ARV_FAKE_GV_CAMERA)) {
+      GTEST_SKIP() << "arv-fake-gv-camera-0.8 is not installed (Debian package aravis-tools-cli)";
+    }
+    if (std::string(OCCMAP_IP).find("NOTFOUND") != std::string::npos) {
+      GTEST_SKIP() << "the ip command is not installed (Debian package iproute2)";
+    }
+    if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+      GTEST_SKIP() << problem;
+    }
+    // One address per camera on this namespace's own loopback (127.0.0.1 is there already).
+    for (int k = 1; k < kCameras; ++k) {
+      const auto result = runCommand({OCCMAP_IP, "addr", "replace", address(k) + "/8", "dev", "lo"});
+      ASSERT_EQ(result.exit_code, 0) << result.err;
+    }
+    for (int k = 0; k < kCameras; ++k) startCamera(k);
+  }
+
+  void startCamera(int k) {
+    cameras_[k] = std::make_unique<ChildProcess>(
+        std::vector<std::string>{OCCMAP_ARV_FAKE_GV_CAMERA, "-i", address(k), "-s", serial(k)},
+        folder_ / ("camera-" + serial(k)));
+    ASSERT_TRUE(cameras_[k]->started());
+  }
+
+  // occmapd on the example, up once every camera streams (READY=1).
+  void startDaemon() {
+    NotifyListener systemd(folder_ / "notify");
+    daemon_ = std::make_unique<ChildProcess>(
+        std::vector<std::string>{kOccmapd, "--config", kConfig}, folder_ / "occmapd",
+        std::vector<std::pair<std::string, std::string>>{{"NOTIFY_SOCKET", systemd.path().string()}});
+    ASSERT_TRUE(systemd.collect(60s, "READY=1")) << daemon_->err();
+  }
+
+  void TearDown() override {
+    if (daemon_) {
+      daemon_->signal(SIGTERM);
+      EXPECT_EQ(daemon_->waitExit(5s), 0) << daemon_->err();
+    }
+  }
+
+  TemporaryFolder folder_;
+  std::array<std::unique_ptr<ChildProcess>, kCameras> cameras_;
+  std::unique_ptr<ChildProcess> daemon_;
+};
+
+TEST_F(FakeGigE, FourCamerasStreamAtThirtyFpsForTenSecondsWithNoFailureCounted) {
+  startDaemon();
+  Listener listener;
+  ASSERT_TRUE(listener.good());
+  ASSERT_TRUE(listener.listen(5s, [&] { return listener.status().has_value(); }));
+  const std::int64_t maps_before = listener.status()->maps_published;
+  std::array<std::int64_t, kCameras> frames_before{};
+  for (int k = 0; k < kCameras; ++k) {
+    const auto* camera = listener.camera("gv0" + std::to_string(k + 1));
+    ASSERT_NE(camera, nullptr) << "status names the cameras gv01-gv04";
+    frames_before[k] = camera->frames_in;
+  }
+  listener.listen(10s);
+  const occmap::status_t& status = *listener.status();
+  const std::int64_t maps = status.maps_published - maps_before;
+  std::printf("10 s: %lld maps published, %zu heard; fusion p50 %.2f ms, p99 %.2f ms\n",
+              static_cast<long long>(maps), listener.maps(), status.fusion_p50_ms,
+              status.fusion_p99_ms);
+  // About 30 a second. The fake cameras are processes on the same two cores as everything else
+  // and fall behind their clock when the machine is busy (27 fps seen under a parallel build), so
+  // the floor here is 80 %; what must hold exactly is that nothing fails.
+  EXPECT_GE(maps, kSanitized ? 100 : 240) << "about 30 maps a second";
+  EXPECT_EQ(status.publish_errors, 0);
+  for (int k = 0; k < kCameras; ++k) {
+    const auto& camera = *listener.camera("gv0" + std::to_string(k + 1));
+    std::printf("  %s: %lld frames in 10 s (%.1f fps), incomplete %lld, missing packets %lld, "
+                "resent %lld, underruns %lld, dropped %lld\n",
+                camera.name.c_str(), static_cast<long long>(camera.frames_in - frames_before[k]),
+                camera.fps, static_cast<long long>(camera.frames_incomplete),
+                static_cast<long long>(camera.missing_packets),
+                static_cast<long long>(camera.resent_packets),
+                static_cast<long long>(camera.underruns),
+                static_cast<long long>(camera.frames_dropped));
+    EXPECT_EQ(camera.state, 1) << camera.name << " streaming";
+    EXPECT_GE(camera.frames_in - frames_before[k], kSanitized ? 200 : 240) << camera.name;
+    EXPECT_EQ(camera.frames_incomplete, 0) << camera.name;
+    EXPECT_EQ(camera.missing_packets, 0) << camera.name;
+    EXPECT_EQ(camera.underruns, 0) << camera.name;
+    EXPECT_EQ(camera.reconnects, 0) << camera.name;
+    if (!kSanitized) {
+      EXPECT_EQ(camera.frames_dropped, 0) << camera.name;
+    }
+  }
+}
+
+std::size_t unseenCells(const DecodedMap& map) {
+  return static_cast<std::size_t>(
+      std::count(map.cells.begin(), map.cells.end(), static_cast<std::uint8_t>(2)));
+}
+
+TEST_F(FakeGigE, ACameraKilledIsMarkedDownTheMapsGoOnAndItStreamsAgainSoonAfterItIsBack) {
+  startDaemon();
+  Listener listener;
+  ASSERT_TRUE(listener.good());
+  ASSERT_TRUE(listener.listen(5s, [&] { return listener.map() && listener.status(); }));
+  listener.listen(1s);
+  const std::size_t unseen_before = unseenCells(*listener.map());
+  const int lost = 2;  // gv03
+  const std::string name = "gv03";
+
+  cameras_[lost]->signal(SIGKILL);
+  const auto killed = Clock::now();
+  ASSERT_TRUE(listener.listen(5s, [&] {
+    const auto* camera = listener.camera(name);
+    return camera != nullptr && camera->state == 2;
+  })) << "never marked down";
+  const auto down_after = Clock::now() - killed;
+  std::printf("%s marked down %.2f s after it was killed: %s\n", name.c_str(),
+              std::chrono::duration<double>(down_after).count(),
+              listener.camera(name)->last_error.c_str());
+  // The status is asked for every 0.1 s: "within a second" plus one question's round trip.
+  if (!kSanitized) {
+    EXPECT_LT(down_after, 1200ms) << "down within a second";
+  }
+
+  // The maps go on without it, and what only it saw is unseen now.
+  const std::size_t maps_at_loss = listener.maps();
+  listener.listen(2s);
+  EXPECT_GE(listener.maps() - maps_at_loss, kSanitized ? 10u : 50u) << "maps go on";
+  const DecodedMap& map = *listener.map();
+  ASSERT_EQ(map.cameras.size(), static_cast<std::size_t>(kCameras));
+  EXPECT_FALSE(map.cameras[lost].used);
+  EXPECT_EQ(map.cameras[lost].state, CameraState::kDown);
+  EXPECT_GT(unseenCells(map), unseen_before) << "its cells turn unseen";
+  for (int k = 0; k < kCameras; ++k) {
+    if (k != lost) {
+      EXPECT_TRUE(map.cameras[k].used) << "camera " << k;
+    }
+  }
+
+  startCamera(lost);
+  const auto restarted = Clock::now();
+  const std::int64_t frames_at_restart = listener.camera(name)->frames_in;
+  ASSERT_TRUE(listener.listen(10s, [&] {
+    const auto* camera = listener.camera(name);
+    return camera->state == 1 && camera->frames_in > frames_at_restart;
+  })) << "never streamed again: " << daemon_->err();
+  const auto back_after = Clock::now() - restarted;
+  std::printf("%s streaming again %.2f s after it was restarted (reconnects %d)\n", name.c_str(),
+              std::chrono::duration<double>(back_after).count(), listener.camera(name)->reconnects);
+  EXPECT_LT(back_after, 3s) << "streaming again within 3 s";
+  EXPECT_GE(listener.camera(name)->reconnects, 1);
+  listener.listen(1s);
+  EXPECT_TRUE(listener.map()->cameras[lost].used);
+  EXPECT_EQ(unseenCells(*listener.map()), unseen_before) << "its cells are seen again";
+  EXPECT_NE(daemon_->err().find("camera gv03 is back"), std::string::npos) << daemon_->err();
+}
+
+}  // namespace
+}  // namespace occmap
