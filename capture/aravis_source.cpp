@@ -120,12 +120,6 @@ std::string takeMessage(GError*& error) {
   return text;
 }
 
-std::int64_t monotonicNs() {
-  timespec now{};
-  ::clock_gettime(CLOCK_MONOTONIC, &now);
-  return now.tv_sec * 1'000'000'000LL + now.tv_nsec;
-}
-
 const char* bufferStatusText(ArvBufferStatus status) {
   switch (status) {
     case ARV_BUFFER_STATUS_SUCCESS:
@@ -325,7 +319,7 @@ class AravisSource final : public FrameSource {
       releaseNow(false);
       return false;
     }
-    connected_ns_ = monotonicNs();
+    connected_ns_ = monotonicNanoseconds();
     last_frame_ns_ = 0;
     return true;
   }
@@ -350,7 +344,7 @@ class AravisSource final : public FrameSource {
       arv_camera_start_acquisition(camera_, &gerror);
       if (gerror != nullptr) return lost("the camera did not start: " + takeMessage(gerror));
       acquiring_ = true;
-      connected_ns_ = monotonicNs();
+      connected_ns_ = monotonicNanoseconds();
     }
     reportRealtime();
     if (context_->control_lost.load()) {
@@ -359,7 +353,7 @@ class AravisSource final : public FrameSource {
     }
     ArvBuffer* buffer = arv_stream_timeout_pop_buffer(stream_, kWaitUs);
     updateCounters();
-    const std::int64_t now = monotonicNs();
+    const std::int64_t now = monotonicNanoseconds();
     if (buffer == nullptr) {
       const std::int64_t since = last_frame_ns_ != 0 ? last_frame_ns_ : connected_ns_;
       const std::int64_t limit = last_frame_ns_ != 0 ? silence_limit_ns_ : 2 * silence_limit_ns_;
@@ -801,7 +795,7 @@ class AravisSource final : public FrameSource {
       stream_counts_ = {};
     }
     // Answering: not lost, and either sending frames or not asked to yet (opened moments ago).
-    const std::int64_t now = monotonicNs();
+    const std::int64_t now = monotonicNanoseconds();
     const bool answering =
         !context_ ||
         (!context_->control_lost.load() &&

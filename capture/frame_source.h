@@ -85,5 +85,7 @@ class FrameSource {
 
 // The host's wall clock in microseconds since the Unix epoch, as LCM's utime has it.
 std::int64_t hostTimeMicroseconds();
+// CLOCK_MONOTONIC in nanoseconds: for waits and ages, which must not jump with the wall clock.
+std::int64_t monotonicNanoseconds();
 
 }  // namespace occmap

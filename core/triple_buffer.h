@@ -19,11 +19,13 @@ class TripleBuffer {
 
   // Writer: the buffer to fill.
   T& writeBuffer() noexcept { return buffers_[write_]; }
-  // Writer: makes the filled buffer the newest and takes another to fill.
-  void publish() noexcept {
-    write_ =
-        middle_.exchange(static_cast<std::uint8_t>(write_ | kFresh), std::memory_order_acq_rel) &
-        kIndex;
+  // Writer: makes the filled buffer the newest and takes another to fill. True when that
+  // overwrote a buffer the reader never took (the reader was too slow for it: it is skipped).
+  bool publish() noexcept {
+    const std::uint8_t previous =
+        middle_.exchange(static_cast<std::uint8_t>(write_ | kFresh), std::memory_order_acq_rel);
+    write_ = previous & kIndex;
+    return (previous & kFresh) != 0;
   }
 
   // Reader: moves to the newest published buffer; false when nothing new was published.

@@ -405,6 +405,19 @@ class ConfigReader {
     for (const Entry& entry : entries(value, kTransportKeys)) {
       if (entry.key == "lcm_url") {
         transport.lcm_url = nonEmptyText(entry.value);
+        // LCM itself says only "provider not found" on stderr and opens nothing: name the
+        // providers here, where the line is known.
+        const std::string_view url = transport.lcm_url;
+        const std::size_t scheme_end = url.find("://");
+        const std::string_view scheme = url.substr(0, scheme_end);
+        constexpr std::string_view kProviders[] = {"udpm", "mpudpm", "tcpq", "memq", "file"};
+        if (scheme_end == std::string_view::npos ||
+            std::find(std::begin(kProviders), std::end(kProviders), scheme) == std::end(kProviders)) {
+          fail(entry.value.line, entry.value.field,
+               "'" + transport.lcm_url +
+                   "' is not an LCM URL; use udpm://239.255.76.67:7667?ttl=0 (UDP multicast, "
+                   "LCM's default), tcpq://host:port, memq:// or file://path");
+        }
       } else if (entry.key == "map_channel") {
         transport.map_channel = nonEmptyText(entry.value);
         map_channel_line = entry.value.line;

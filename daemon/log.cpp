@@ -7,6 +7,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "capture/frame_source.h"
+
 namespace occmap {
 namespace {
 
@@ -37,12 +39,6 @@ const char* levelName(LogLevel level) {
   return "?";
 }
 
-std::int64_t monotonicNs() {
-  timespec now{};
-  ::clock_gettime(CLOCK_MONOTONIC, &now);
-  return now.tv_sec * 1'000'000'000LL + now.tv_nsec;
-}
-
 }  // namespace
 
 void logLine(LogLevel level, const char* format, ...) {
@@ -64,7 +60,7 @@ void logLine(LogLevel level, const char* format, ...) {
 }
 
 bool RateLimit::allow(std::uint64_t& suppressed) {
-  const std::int64_t now = monotonicNs();
+  const std::int64_t now = monotonicNanoseconds();
   std::int64_t next = next_ns_.load(std::memory_order_relaxed);
   if (now < next ||
       !next_ns_.compare_exchange_strong(next, now + interval_ns_, std::memory_order_relaxed)) {

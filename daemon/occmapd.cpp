@@ -76,13 +76,15 @@ void reload(std::unique_ptr<Pipeline>& pipeline, const std::string& file,
   try {
     next.rig.openLiveCameras(&old_rig);
     pipeline = std::make_unique<Pipeline>(std::move(next.rig), std::move(next.tables), options);
+    pipeline->start();
   } catch (const std::exception&) {
+    if (pipeline) next.rig = pipeline->takeRig();  // it never started: its cameras go back
+    pipeline.reset();
     old_rig.openLiveCameras(&next.rig);  // takes back what went over, reopens the rest
     pipeline = std::make_unique<Pipeline>(std::move(old_rig), std::move(old_tables), options);
     pipeline->start();
     throw;
   }
-  pipeline->start();
   logLine(LogLevel::kNotice, "reloaded %s", file.c_str());
 }
 
@@ -138,6 +140,7 @@ int run(const Options& options) {
                         : std::chrono::milliseconds(500);
   bool ready = false;
   std::uint64_t last_progress = 0;
+  std::uint64_t last_lcm_rounds = 0;
   auto last_status = std::chrono::steady_clock::now() - std::chrono::seconds(10);
   for (;;) {
     pollfd fd{signal_fd, POLLIN, 0};
@@ -182,11 +185,15 @@ int run(const Options& options) {
       logLine(LogLevel::kNotice, "ready: %s", pipeline->summary().c_str());
     }
     const std::uint64_t progress = pipeline->mapsFused();
-    if (progress != last_progress) {
-      // Fusion made a map since the last look: the daemon is alive. A stalled fusion stops these
-      // pings, and systemd restarts the service after WatchdogSec=.
+    const std::uint64_t lcm_rounds = pipeline->lcmRounds();
+    if (progress != last_progress && lcm_rounds != last_lcm_rounds) {
+      // Fusion made a map and the LCM thread went round since the last look: the daemon is alive.
+      // A stalled fusion or a publisher stuck in a call stops these pings, and systemd restarts
+      // the service after WatchdogSec=. (A network that is down is not a stall: publishing goes
+      // on failing, counted, and the pings go on.)
       notifier.watchdog();
       last_progress = progress;
+      last_lcm_rounds = lcm_rounds;
     }
     const auto now = std::chrono::steady_clock::now();
     if (now - last_status >= std::chrono::seconds(2)) {

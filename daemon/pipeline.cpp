@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <deque>
+#include <future>
 #include <stdexcept>
 
 #include <occmap/status_request_t.hpp>
@@ -18,12 +18,6 @@
 
 namespace occmap {
 namespace {
-
-std::int64_t monotonicNs() {
-  timespec now{};
-  ::clock_gettime(CLOCK_MONOTONIC, &now);
-  return now.tv_sec * 1'000'000'000LL + now.tv_nsec;
-}
 
 std::int64_t toNs(std::chrono::nanoseconds d) { return d.count(); }
 
@@ -111,11 +105,19 @@ void Pipeline::wake(int fd) {
 
 void Pipeline::start() {
   if (started_) return;
+  // The LCM thread first, so that it subscribes before the first map exists; it says whether LCM
+  // opened before anything else starts.
+  std::promise<std::string> lcm_opened;
+  std::future<std::string> lcm_problem = lcm_opened.get_future();
+  threads_.emplace_back([this, &lcm_opened] { lcmLoop(lcm_opened); });
+  if (std::string problem = lcm_problem.get(); !problem.empty()) {
+    threads_.back().join();
+    threads_.clear();
+    throw std::runtime_error(problem);
+  }
   started_ = true;
-  start_ns_ = monotonicNs();
+  start_ns_ = monotonicNanoseconds();
   last_fused_ns_ = start_ns_;
-  // The LCM thread first, so that it subscribes before the first map exists.
-  threads_.emplace_back([this] { lcmLoop(); });
   threads_.emplace_back([this] { fusionLoop(); });
   for (std::size_t k = 0; k < rig_.cameras().size(); ++k) {
     threads_.emplace_back([this, k] { captureLoop(k); });
@@ -123,15 +125,15 @@ void Pipeline::start() {
 }
 
 void Pipeline::stop() {
-  if (!started_ || stopping_.exchange(true)) {
-    for (std::thread& t : threads_) {
-      if (t.joinable()) t.join();
-    }
-    return;
-  }
+  if (!started_ || stopping_.exchange(true)) return;
+  // threads_: the LCM thread, the fusion thread, then one per camera.
+  for (std::size_t t = 2; t < threads_.size(); ++t) threads_[t].join();
+  stop_fusion_.store(true);
   wake(fusion_wakeup_);
+  threads_[1].join();
+  stop_lcm_.store(true);
   wake(publish_wakeup_);
-  for (std::thread& t : threads_) t.join();
+  threads_[0].join();
   threads_.clear();
 }
 
@@ -167,7 +169,7 @@ void Pipeline::captureLoop(std::size_t k) {
   const ImageView background = camera.background.view();
   const double fps = rig_.config().cameras[k].fps.value_or(30.0);
   const auto period_ns = static_cast<std::int64_t>(1e9 / fps);
-  std::int64_t next_ns = monotonicNs();
+  std::int64_t next_ns = monotonicNanoseconds();
   RateLimit error_warnings(std::chrono::seconds(10));
   const int ring_width = camera.background.width();
   const int ring_height = camera.background.height();
@@ -179,21 +181,21 @@ void Pipeline::captureLoop(std::size_t k) {
       // Recorded and simulated cameras run at their configured rate, as a camera would.
       sleepUntil(next_ns);
       next_ns += period_ns;
-      const std::int64_t now = monotonicNs();
+      const std::int64_t now = monotonicNanoseconds();
       if (next_ns < now - period_ns) next_ns = now;  // fell far behind: do not burst to catch up
     }
     if (lost) {
       // The camera is away: try to open it again, waiting longer after each failure (0.1 s up
       // to 1 s: a try that finds nothing already takes a second of Aravis's discovery), in
       // short sleeps so that a stop is noticed.
-      const std::int64_t now = monotonicNs();
+      const std::int64_t now = monotonicNanoseconds();
       if (now < next_retry_ns) {
         sleepUntil(std::min(next_retry_ns, now + 100'000'000));
         continue;
       }
       if (!source.reopen()) {
         retry_ns = std::min<std::int64_t>(retry_ns * 2, 1'000'000'000);
-        next_retry_ns = monotonicNs() + retry_ns;
+        next_retry_ns = monotonicNanoseconds() + retry_ns;
         continue;
       }
       lost = false;
@@ -207,7 +209,7 @@ void Pipeline::captureLoop(std::size_t k) {
     if (status == FrameSource::Status::kTimeout) continue;
     if (status == FrameSource::Status::kLost) {
       lost = true;
-      next_retry_ns = monotonicNs() + retry_ns;
+      next_retry_ns = monotonicNanoseconds() + retry_ns;
       counters.lost.store(true, std::memory_order_relaxed);
       counters.setLastError(source.lastError());
       logLine(LogLevel::kWarning, "camera %s lost: %s; reconnecting", camera.name.c_str(),
@@ -225,18 +227,18 @@ void Pipeline::captureLoop(std::size_t k) {
       counters.frames_dropped.fetch_add(1, std::memory_order_relaxed);
       std::uint64_t suppressed = 0;
       if (error_warnings.allow(suppressed)) {
-        const std::string why =
-            wrong_size ? "a frame of " + std::to_string(frame.image.width) + "x" +
-                             std::to_string(frame.image.height) + " instead of " +
-                             std::to_string(ring_width) + "x" + std::to_string(ring_height)
-                       : source.lastError();
+        const std::string why = wrong_size ? "a frame of " + std::to_string(frame.image.width) +
+                                                 "x" + std::to_string(frame.image.height) +
+                                                 " instead of " + std::to_string(ring_width) + "x" +
+                                                 std::to_string(ring_height)
+                                           : source.lastError();
         counters.setLastError(why);
         logLine(LogLevel::kWarning, "camera %s: %s, dropped (%llu more like this not shown)",
                 camera.name.c_str(), why.c_str(), static_cast<unsigned long long>(suppressed));
       }
       continue;
     }
-    const std::int64_t arrived_ns = monotonicNs();
+    const std::int64_t arrived_ns = monotonicNanoseconds();
     CapturedFrame* slot = ring.writeSlot();
     if (slot == nullptr) {
       // Fusion is behind and holds every slot: drop the newest, count it, say so now and then.
@@ -271,14 +273,16 @@ void Pipeline::fusionLoop() {
   const std::int64_t start_timeout_ns = toNs(options_.camera_start_timeout);
   const std::int64_t heartbeat_ns = toNs(options_.heartbeat);
   pollfd wakeup{fusion_wakeup_, POLLIN, 0};
-  while (!stopping_.load(std::memory_order_relaxed)) {
-    std::int64_t now = monotonicNs();
+  while (!stop_fusion_.load(std::memory_order_relaxed)) {
+    std::int64_t now = monotonicNanoseconds();
     std::int64_t timeout_ns = set_deadline_ns_ != 0 ? set_deadline_ns_ - now : 100'000'000;
     timeout_ns = std::clamp<std::int64_t>(timeout_ns, 0, 100'000'000);
     ::poll(&wakeup, 1, static_cast<int>((timeout_ns + 999'999) / 1'000'000));
     drainEventfd(fusion_wakeup_);
-    if (stopping_.load(std::memory_order_relaxed)) break;
-    now = monotonicNs();
+    // On stop, the cameras have ended: what they left is fused below as a last (complete or
+    // not) frame set, so no frame that reached a ring is lost without a map.
+    const bool last_round = stop_fusion_.load(std::memory_order_relaxed);
+    now = monotonicNanoseconds();
     bool any_fresh = false;
     bool all_fresh = true;
     for (std::size_t k = 0; k < rings_.size(); ++k) {
@@ -305,19 +309,26 @@ void Pipeline::fusionLoop() {
         state = CameraState::kDown;
       }
       if (counters.state.exchange(state, std::memory_order_relaxed) != state &&
-          state == CameraState::kDown) {
+          state == CameraState::kDown && !counters.lost.load(std::memory_order_relaxed)) {
+        // Gone silent (a source that says why it was lost has said so already, and its reason is
+        // the better one for the status).
         char why[96];
         std::snprintf(why, sizeof why, "no frame for %.1f s",
                       static_cast<double>(now - (last == 0 ? start_ns_ : last)) / 1e9);
         counters.setLastError(why);
-        logLine(LogLevel::kWarning, "camera %s is down: %s", rig_.cameras()[k].name.c_str(), why);
+        std::uint64_t suppressed = 0;
+        if (counters.down_warnings.allow(suppressed)) {
+          logLine(LogLevel::kWarning, "camera %s is down: %s (%llu more since)",
+                  rig_.cameras()[k].name.c_str(), why, static_cast<unsigned long long>(suppressed));
+        }
       }
       any_fresh = any_fresh || held.fresh;
       if (state != CameraState::kDown && !held.fresh) all_fresh = false;
     }
     if (any_fresh && set_deadline_ns_ == 0) set_deadline_ns_ = now + max_wait_ns;
-    const bool set_complete = any_fresh && (all_fresh || now >= set_deadline_ns_);
+    const bool set_complete = any_fresh && (all_fresh || now >= set_deadline_ns_ || last_round);
     if (set_complete || now - last_fused_ns_ >= heartbeat_ns) fuse(now);
+    if (last_round) break;
   }
 }
 
@@ -325,7 +336,8 @@ void Pipeline::fuse(std::int64_t now) {
   if (options_.stall_fusion_after_maps != 0 &&
       maps_fused_.load(std::memory_order_relaxed) >= options_.stall_fusion_after_maps) {
     // Injected fault: fusion hangs (until stop), as a deadlock or a stuck device call would.
-    while (!stopping_.load(std::memory_order_relaxed)) sleepUntil(monotonicNs() + 10'000'000);
+    while (!stop_fusion_.load(std::memory_order_relaxed))
+      sleepUntil(monotonicNanoseconds() + 10'000'000);
     return;
   }
   const std::int64_t down_after_ns = toNs(options_.camera_down_after);
@@ -345,11 +357,11 @@ void Pipeline::fuse(std::int64_t now) {
     if (used) newest = std::max(newest, held.frame->capture_time_us);
     held.fresh = false;
   }
-  const std::int64_t began = monotonicNs();
+  const std::int64_t began = monotonicNanoseconds();
   kernel_.fuse(changed_, out.map.cells);
-  fusion_times_.record(monotonicNs() - began);
+  fusion_times_.record(monotonicNanoseconds() - began);
   out.utime = newest != 0 ? newest : hostTimeMicroseconds();
-  maps_.publish();
+  if (maps_.publish()) maps_skipped_.fetch_add(1, std::memory_order_relaxed);
   wake(publish_wakeup_);
   set_deadline_ns_ = 0;
   last_fused_ns_ = now;
@@ -358,14 +370,16 @@ void Pipeline::fuse(std::int64_t now) {
 
 // The one thread that owns the LCM handle: publishes maps as fusion makes them, answers status
 // requests, publishes the status every status_period.
-void Pipeline::lcmLoop() {
+void Pipeline::lcmLoop(std::promise<std::string>& opened) {
   const Config& config = rig_.config();
   const TransportSettings& transport = config.transport;
   LcmBus bus(transport.lcm_url);
   if (!bus.good()) {
-    logLine(LogLevel::kError, "cannot open LCM at %s; no maps will be published",
-            transport.lcm_url.c_str());
+    opened.set_value("cannot open LCM at " + transport.lcm_url +
+                     " (a udpm:// URL needs a network with a multicast route; see docs/daemon.md)");
+    return;
   }
+  opened.set_value("");
   std::vector<std::string> names;
   for (const RigCamera& camera : rig_.cameras()) names.push_back(camera.name);
   MapEncoder encoder(config.map, names, parseMapEncoding(transport.encoding).value());
@@ -395,17 +409,18 @@ void Pipeline::lcmLoop() {
   const std::int64_t status_period_ns = toNs(options_.status_period);
   const std::int64_t daemon_start_ns =
       toNs(options_.daemon_start.time_since_epoch());  // steady_clock is CLOCK_MONOTONIC
-  std::int64_t next_status_ns = monotonicNs();
-  // Rates are measured over the last few status periods: one period alone is too short to be
-  // steady.
+  std::int64_t next_status_ns = monotonicNanoseconds();
+  // Rates are measured over the last few status periods (one alone is too short to be steady):
+  // a fixed ring of samples, the oldest at `oldest_sample`, filled in place.
   struct Sample {
-    std::int64_t ns;
-    std::uint64_t published;
+    std::int64_t ns = 0;
+    std::uint64_t published = 0;
     std::vector<std::uint64_t> frames;
   };
   constexpr std::size_t kRateSamples = 5;
-  std::deque<Sample> samples;
-  samples.push_back({next_status_ns, 0, std::vector<std::uint64_t>(counters_.size(), 0)});
+  std::vector<Sample> samples(
+      kRateSamples, Sample{next_status_ns, 0, std::vector<std::uint64_t>(counters_.size())});
+  std::size_t oldest_sample = 0;
   double answer_tokens = options_.max_status_answers_per_s;
   std::int64_t last_token_ns = next_status_ns;
   std::vector<std::uint8_t> status_buffer;
@@ -413,7 +428,7 @@ void Pipeline::lcmLoop() {
   std::int64_t next_seq = 0;
 
   auto publishStatus = [&](std::int64_t request_id, std::int64_t now) {
-    const Sample& oldest = samples.front();
+    const Sample& oldest = samples[oldest_sample];
     const double window_s = std::max(1e-3, static_cast<double>(now - oldest.ns) / 1e9);
     status.utime = hostTimeMicroseconds();
     status.request_id = request_id;
@@ -451,12 +466,14 @@ void Pipeline::lcmLoop() {
       s.last_error = counters_[k]->lastError();
     }
     if (request_id < 0) {
-      Sample sample{now, published, {}};
-      for (const auto& c : counters_) {
-        sample.frames.push_back(c->frames_in.load(std::memory_order_relaxed));
+      // The oldest sample makes way for this one (the ring starts with copies of the start).
+      Sample& sample = samples[oldest_sample];
+      sample.ns = now;
+      sample.published = published;
+      for (std::size_t k = 0; k < counters_.size(); ++k) {
+        sample.frames[k] = counters_[k]->frames_in.load(std::memory_order_relaxed);
       }
-      samples.push_back(std::move(sample));
-      if (samples.size() > kRateSamples) samples.pop_front();
+      oldest_sample = (oldest_sample + 1) % kRateSamples;
     }
     status_buffer.resize(static_cast<std::size_t>(status.getEncodedSize()));
     status.encode(status_buffer.data(), 0, static_cast<int>(status_buffer.size()));
@@ -465,24 +482,28 @@ void Pipeline::lcmLoop() {
     }
   };
 
-  pollfd fds[2] = {{publish_wakeup_, POLLIN, 0}, {bus.good() ? bus.fileno() : -1, POLLIN, 0}};
-  while (!stopping_.load(std::memory_order_relaxed)) {
-    std::int64_t now = monotonicNs();
+  auto publishNewestMap = [&] {
+    if (!maps_.takeLatest()) return;
+    MapFrame& map = maps_.readBuffer();
+    map.seq = next_seq++;
+    const std::span<const std::uint8_t> message = encoder.encode(map);
+    if (!message.empty() && bus.publish(transport.map_channel, message)) {
+      maps_published_.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      publish_errors_.fetch_add(1, std::memory_order_relaxed);
+    }
+  };
+
+  pollfd fds[2] = {{publish_wakeup_, POLLIN, 0}, {bus.fileno(), POLLIN, 0}};
+  while (!stop_lcm_.load(std::memory_order_relaxed)) {
+    lcm_rounds_.fetch_add(1, std::memory_order_relaxed);
+    std::int64_t now = monotonicNanoseconds();
     const std::int64_t timeout_ns = std::clamp<std::int64_t>(next_status_ns - now, 0, 100'000'000);
     ::poll(fds, 2, static_cast<int>((timeout_ns + 999'999) / 1'000'000));
     if (fds[0].revents & POLLIN) drainEventfd(publish_wakeup_);
-    if (maps_.takeLatest()) {
-      MapFrame& map = maps_.readBuffer();
-      map.seq = next_seq++;
-      const std::span<const std::uint8_t> message = encoder.encode(map);
-      if (bus.good() && !message.empty() && bus.publish(transport.map_channel, message)) {
-        maps_published_.fetch_add(1, std::memory_order_relaxed);
-      } else {
-        publish_errors_.fetch_add(1, std::memory_order_relaxed);
-      }
-    }
-    if (bus.good() && (fds[1].revents & POLLIN)) bus.handleTimeout(0);
-    now = monotonicNs();
+    publishNewestMap();
+    if (fds[1].revents & POLLIN) bus.handleTimeout(0);
+    now = monotonicNanoseconds();
     answer_tokens = std::min(options_.max_status_answers_per_s,
                              answer_tokens + static_cast<double>(now - last_token_ns) / 1e9 *
                                                  options_.max_status_answers_per_s);
@@ -500,8 +521,13 @@ void Pipeline::lcmLoop() {
       next_status_ns = now + status_period_ns;
     }
   }
-  // A last status that says the daemon is stopping.
-  publishStatus(-1, monotonicNs());
+  // Fusion has ended: its last map goes out, then a last status that says the daemon is stopping.
+  publishNewestMap();
+  publishStatus(-1, monotonicNanoseconds());
+  // In-process subscribers (memq://, the tests' hooks) hear what was sent only when the bus is
+  // handled: let them have the last map too.
+  while (bus.handleTimeout(0) > 0) {
+  }
   if (requests_ignored > 0) {
     logLine(LogLevel::kInfo, "%llu malformed or excess status requests were ignored",
             static_cast<unsigned long long>(requests_ignored));

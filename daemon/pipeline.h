@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -62,13 +63,23 @@ class Pipeline {
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
 
+  // Starts every thread. Throws std::runtime_error when LCM cannot be opened for the config's
+  // lcm_url (then nothing runs): a daemon that can publish nothing must not say it is ready.
   void start();
-  // Stops and joins every thread; idempotent. Returns within a frame period or so.
+  // Stops and joins every thread, in the order the data flows: the cameras first, then fusion
+  // (which finishes the map it is making), then the LCM thread, which publishes what fusion made
+  // last. So every map fused is published. Idempotent; returns within a frame period or so.
   void stop();
 
   // For the main thread (any thread may call these).
   std::uint64_t mapsFused() const { return maps_fused_.load(std::memory_order_relaxed); }
   std::uint64_t mapsPublished() const { return maps_published_.load(std::memory_order_relaxed); }
+  // Maps the publisher never took because fusion made a newer one first (it publishes the newest).
+  // fused = published + skipped + publish errors.
+  std::uint64_t mapsSkipped() const { return maps_skipped_.load(std::memory_order_relaxed); }
+  // Rounds of the LCM thread's loop (at least ten a second while it runs): the watchdog's proof
+  // that publishing is not stuck.
+  std::uint64_t lcmRounds() const { return lcm_rounds_.load(std::memory_order_relaxed); }
   // Every camera has delivered a frame or been marked down: the daemon may say READY.
   bool camerasReportedIn() const;
   // One line for systemd's STATUS=: maps/s, cameras streaming, drops.
@@ -95,6 +106,7 @@ class Pipeline {
     std::atomic<std::int64_t> last_frame_ns{0};  // monotonic; 0 before the first frame
     std::atomic<CameraState> state{CameraState::kStarting};
     std::atomic<bool> lost{false};  // the source reported the device gone; reconnecting
+    RateLimit down_warnings{std::chrono::seconds(10)};  // a flapping camera logs now and then
     std::atomic<std::int32_t> reconnects{0};
     // Why the camera last failed: written on error paths only (never per frame), hence a mutex.
     void setLastError(std::string text) {
@@ -118,7 +130,7 @@ class Pipeline {
 
   void captureLoop(std::size_t camera);
   void fusionLoop();
-  void lcmLoop();
+  void lcmLoop(std::promise<std::string>& opened);
   void fuse(std::int64_t now_ns);
   void wake(int eventfd);
 
@@ -144,9 +156,14 @@ class Pipeline {
   std::int64_t last_fused_ns_ = 0;
   std::int64_t start_ns_ = 0;
 
-  std::atomic<bool> stopping_{false};
+  // Stop requests, one per stage so that each drains what the one before it left.
+  std::atomic<bool> stopping_{false};  // stop() was called; the capture threads end
+  std::atomic<bool> stop_fusion_{false};
+  std::atomic<bool> stop_lcm_{false};
+  std::atomic<std::uint64_t> lcm_rounds_{0};
   std::atomic<std::uint64_t> maps_fused_{0};
   std::atomic<std::uint64_t> maps_published_{0};
+  std::atomic<std::uint64_t> maps_skipped_{0};
   std::atomic<std::uint64_t> publish_errors_{0};
   std::atomic<DaemonState> state_{DaemonState::kStarting};
   int fusion_wakeup_ = -1;   // eventfd: capture threads -> fusion

@@ -251,6 +251,10 @@ TEST(ConfigErrors, OutOfRangeValuesSayTheRange) {
               "letters, digits");
   expectError(kMinimal + "transport: {encoding: lz4}\n", 5, "transport.encoding", "raw or zstd");
   expectError(kMinimal + "transport: {lcm_url: \"\"}\n", 5, "transport.lcm_url", "empty");
+  expectError(kMinimal + "transport: {lcm_url: \"bogus://x\"}\n", 5, "transport.lcm_url",
+              "not an LCM URL");
+  expectError(kMinimal + "transport: {lcm_url: \"239.255.76.67:7667\"}\n", 5, "transport.lcm_url",
+              "udpm://");
   expectError(kMinimal + "transport:\n  map_channel: A\n  status_channel: A\n", 7,
               "transport.status_channel", "must differ");
 }
