@@ -215,7 +215,8 @@ void Rig::openLiveCamera(std::size_t index, const SourceSpec& spec) {
   }
   if (!camera.camera) {
     // Opened without its background (to make one): the geometry follows the camera.
-    const LoadedCalibration calibration = loadCalibration(*entry.calibration, entry.calibration_units);
+    const LoadedCalibration calibration =
+        loadCalibration(*entry.calibration, entry.calibration_units);
     camera.camera = std::make_unique<Camera>(calibration.model, calibration.units, width, height,
                                              opener.region(*calibration.model));
     if (entry.floor_mask) {
@@ -239,7 +240,6 @@ bool sameConnection(const CameraConfig& a, const RigCamera& camera_a, const Came
 }  // namespace
 
 void Rig::openLiveCameras(Rig* previous) {
-  std::vector<bool> taken(cameras_.size(), false);
   if (previous != nullptr) {
     // Take over the unchanged connections, then close the rest of the previous rig's cameras
     // before opening anything, so that a camera whose settings changed is free to reopen.
@@ -250,7 +250,7 @@ void Rig::openLiveCameras(Rig* previous) {
         if (old.live && old.source &&
             sameConnection(config_.cameras[k], cameras_[k], previous->config_.cameras[j], old)) {
           cameras_[k].source = std::move(old.source);
-          taken[k] = true;
+          if (notice_) notice_("camera " + cameras_[k].name + ": its connection carries over");
           break;
         }
       }
@@ -265,6 +265,10 @@ void Rig::openLiveCameras(Rig* previous) {
     const std::optional<SourceSpec> spec =
         parseSource(config_.cameras[k].source, config_.file.parent_path(), error);
     openLiveCamera(k, *spec);  // parsed once already by open()
+    if (previous != nullptr && notice_) {
+      notice_("camera " + cameras_[k].name +
+              ": opened anew (its source, settings, rate or size changed)");
+    }
   }
 }
 

@@ -5,7 +5,7 @@
 //
 // The GigE Vision and USB3 Vision interfaces are switched off first, so that looking for a camera
 // sends nothing to any network.
-#include <arv.h>
+#include "capture/aravis_source.h"
 
 #include <atomic>
 #include <cmath>
@@ -13,9 +13,9 @@
 #include <mutex>
 #include <thread>
 
+#include <arv.h>
 #include <gtest/gtest.h>
 
-#include "capture/aravis_source.h"
 #include "capture/image_file.h"
 #include "capture/live_source.h"
 #include "capture/sim/renderer.h"
@@ -83,14 +83,14 @@ std::uint8_t pattern(int u, int v, std::uint64_t n) {
 
 TEST_F(FakeCamera, FramesCarryWhatTheCameraSentWithTheirTimesAndIds) {
   std::atomic<std::uint64_t> filled{0};
-  setFakeCameraFill([&](const std::string& name, std::uint8_t* data, std::size_t size, int width,
-                        int height) {
-    ASSERT_EQ(name, "a");
-    ASSERT_GE(size, static_cast<std::size_t>(width * height));
-    const std::uint64_t n = filled++;
-    for (int v = 0; v < height; ++v)
-      for (int u = 0; u < width; ++u) data[v * width + u] = pattern(u, v, n);
-  });
+  setFakeCameraFill(
+      [&](const std::string& name, std::uint8_t* data, std::size_t size, int width, int height) {
+        ASSERT_EQ(name, "a");
+        ASSERT_GE(size, static_cast<std::size_t>(width * height));
+        const std::uint64_t n = filled++;
+        for (int v = 0; v < height; ++v)
+          for (int u = 0; u < width; ++u) data[v * width + u] = pattern(u, v, n);
+      });
   std::string error;
   auto source = openAravisSource("Fake_1", options(320, 240), error);
   ASSERT_TRUE(source) << error;
@@ -127,8 +127,8 @@ TEST_F(FakeCamera, FramesCarryWhatTheCameraSentWithTheirTimesAndIds) {
 
 TEST_F(FakeCamera, SettingsAreAppliedAndWhatTheCameraChangedIsSaid) {
   std::string error;
-  auto source = openAravisSource("Fake_1", options(160, 120, {{"ExposureTimeAbs", "1234.5"}}),
-                                 error);
+  auto source =
+      openAravisSource("Fake_1", options(160, 120, {{"ExposureTimeAbs", "1234.5"}}), error);
   ASSERT_TRUE(source) << error;
   // The fake camera keeps whole microseconds: read back, the difference is reported.
   EXPECT_NE(notices().find("camera a: setting ExposureTimeAbs: asked 1234.5, the camera took 1234"),
@@ -137,6 +137,27 @@ TEST_F(FakeCamera, SettingsAreAppliedAndWhatTheCameraChangedIsSaid) {
   Frame frame;
   ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
   EXPECT_EQ(frame.image.width, 160);
+}
+
+// Whether the priority is granted depends on the process's limits (RLIMIT_RTPRIO, CAP_SYS_NICE):
+// either way the receive thread asks for it when it starts, and the answer is said.
+TEST_F(FakeCamera, TheReceiveThreadAsksForRealtimePriorityAndTheAnswerIsSaid) {
+  std::string error;
+  auto source =
+      openAravisSource("Fake_1", options(80, 60, {{"stream.realtime_priority", "5"}}), error);
+  ASSERT_TRUE(source) << error;
+  Frame frame;
+  ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+  ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+  const std::string said = notices();
+  const bool granted = said.find("camera a: Aravis's receive thread runs at realtime priority 5") !=
+                       std::string::npos;
+  const bool refused =
+      said.find(
+          "camera a: realtime priority 5 for Aravis's receive thread refused: the service "
+          "needs LimitRTPRIO=") != std::string::npos;
+  EXPECT_TRUE(granted || refused) << said;
+  std::printf("realtime priority 5: %s\n", granted ? "granted" : "refused");
 }
 
 TEST_F(FakeCamera, WhatTheCameraRefusesIsAConfigErrorThatNamesIt) {
@@ -175,7 +196,8 @@ TEST_F(FakeCamera, ColourIsReducedToLuminanceAndBayerIsTakenRaw) {
     for (int v = 0; v < 48; ++v) {
       for (int u = 0; u < 64; ++u) {
         const std::size_t i = static_cast<std::size_t>(v * 64 + u) * 3;
-        const double r = static_cast<double>(i * 37 % 251), g = static_cast<double>((i + 1) * 37 % 251),
+        const double r = static_cast<double>(i * 37 % 251),
+                     g = static_cast<double>((i + 1) * 37 % 251),
                      b = static_cast<double>((i + 2) * 37 % 251);
         const double luminance = 0.299 * r + 0.587 * g + 0.114 * b;  // ITU-R BT.601
         worst = std::max(worst, static_cast<int>(std::abs(frame.image.at(u, v) - luminance) + 0.5));
@@ -210,8 +232,8 @@ TEST(Luminance, YuvGivesItsLumaSamplesAndPaddingIsNeverRead) {
       uyvy[v * kStride + 2 * u] = chroma;
     }
   }
-  for (const auto& [pixels, data] : {std::pair{CameraPixels::kYuv422Yuyv, &yuyv},
-                                     std::pair{CameraPixels::kYuv422Uyvy, &uyvy}}) {
+  for (const auto& [pixels, data] :
+       {std::pair{CameraPixels::kYuv422Yuyv, &yuyv}, std::pair{CameraPixels::kYuv422Uyvy, &uyvy}}) {
     std::vector<std::uint8_t> out(kWidth * kHeight, 0);
     reduceToLuminance(pixels, data->data(), kWidth, kHeight, kStride, out.data());
     for (int v = 0; v < kHeight; ++v)
@@ -270,24 +292,26 @@ TEST_F(FakeCamera, ThePipelinesMapsEqualTheReferenceFusionOfTheImagesTheCamerasS
         static_cast<int>(k));
     std::string error;
     ASSERT_TRUE(writeGreyPng(folder / (camera.name + "-bg.png"), s.renderer->background(), error));
-    ASSERT_TRUE(writeGreyPng(folder / (camera.name + "-floor.png"), s.renderer->floorMask(), error));
+    ASSERT_TRUE(
+        writeGreyPng(folder / (camera.name + "-floor.png"), s.renderer->floorMask(), error));
     folder.write(camera.name + ".xml", testing::tsaiXml(camera.calibration, camera.name));
-    config += "  - {name: " + camera.name + ", source: \"aravis://Fake_1\", calibration: " +
-              camera.name + ".xml, background: " + camera.name + "-bg.png, floor_mask: " +
-              camera.name + "-floor.png, fps: 30}\n";
+    config += "  - {name: " + camera.name +
+              ", source: \"aravis://Fake_1\", calibration: " + camera.name +
+              ".xml, background: " + camera.name + "-bg.png, floor_mask: " + camera.name +
+              "-floor.png, fps: 30}\n";
   }
   // Frame n of each camera is the simulator's frame n: what SimRoomReference renders for a map
   // whose camera says it used frame n.
-  setFakeCameraFill([&](const std::string& name, std::uint8_t* data, std::size_t size, int width,
-                        int height) {
-    Shown& s = shown.at(name);
-    ASSERT_EQ(width, 640);
-    ASSERT_EQ(height, 480);
-    ASSERT_GE(size, 640u * 480u);
-    const std::uint64_t n = s.frames++;
-    s.renderer->render(scene->objectsAt(static_cast<double>(n) / 30.0), n, s.image, s.depth);
-    std::memcpy(data, s.image.data(), 640u * 480u);
-  });
+  setFakeCameraFill(
+      [&](const std::string& name, std::uint8_t* data, std::size_t size, int width, int height) {
+        Shown& s = shown.at(name);
+        ASSERT_EQ(width, 640);
+        ASSERT_EQ(height, 480);
+        ASSERT_GE(size, 640u * 480u);
+        const std::uint64_t n = s.frames++;
+        s.renderer->render(scene->objectsAt(static_cast<double>(n) / 30.0), n, s.image, s.depth);
+        std::memcpy(data, s.image.data(), 640u * 480u);
+      });
   const Config loaded = loadConfig(folder.write("fake.yaml", config));
   Rig rig = Rig::open(loaded);
   std::vector<CarveTable> tables = rig.buildTables(0.0);
