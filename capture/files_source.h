@@ -5,13 +5,15 @@
 #include <vector>
 
 #include "capture/frame_source.h"
+#include "capture/image_file.h"
 
 namespace occmap {
 
 // files://<glob>: a camera's images from disk, in natural (numeric-aware) order of their paths.
 class FilesSource final : public FrameSource {
  public:
-  // Empty with `error` set when the glob matches nothing or the first image cannot be read.
+  // Empty with `error` set when the glob matches nothing (saying so when its folder does not
+  // exist) or the first image cannot be read.
   static std::unique_ptr<FilesSource> open(const std::string& pattern, std::string& error);
 
   int width() const override { return width_; }
@@ -32,7 +34,7 @@ class FilesSource final : public FrameSource {
   std::uint64_t delivered_ = 0;  // frame numbers keep counting across rewinds
   int width_ = 0;
   int height_ = 0;
-  Image current_;
+  GreyImageReader reader_;  // holds the frame read() last gave out
 };
 
 }  // namespace occmap

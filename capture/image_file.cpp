@@ -2,59 +2,114 @@
 
 #include <cerrno>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <vector>
 
+#include <fcntl.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sys/stat.h>
+#include <unistd.h>
 
 namespace occmap {
 
-std::optional<Image> readGreyImage(const std::filesystem::path& file, std::string& error) {
+struct GreyImageReader::Buffers {
+  std::vector<char> bytes;  // the file as it is on disk
+  cv::Mat decoded;          // as the file holds it: grey, BGR or BGRA
+  cv::Mat grey;             // converted from colour
+};
+
+GreyImageReader::GreyImageReader() : buffers_(std::make_unique<Buffers>()) {}
+GreyImageReader::~GreyImageReader() = default;
+
+namespace {
+
+// The whole file into `bytes`, with POSIX calls so that nothing but `bytes` (when it must grow)
+// is allocated; false with errno set.
+bool readFile(const std::filesystem::path& file, std::vector<char>& bytes) {
+  const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  struct stat status {};
+  if (::fstat(fd, &status) != 0) {
+    const int saved = errno;
+    ::close(fd);
+    errno = saved;
+    return false;
+  }
+  bytes.resize(static_cast<std::size_t>(status.st_size));
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t got = ::read(fd, bytes.data() + done, bytes.size() - done);
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) {
+      const int saved = errno;
+      ::close(fd);
+      errno = saved;
+      return false;
+    }
+    if (got == 0) break;  // the file shrank while we read it: decode what there is
+    done += static_cast<std::size_t>(got);
+  }
+  bytes.resize(done);
+  ::close(fd);
+  return true;
+}
+
+}  // namespace
+
+std::optional<ImageView> GreyImageReader::read(const std::filesystem::path& file,
+                                               std::string& error) {
+  Buffers& b = *buffers_;
   // Read the bytes ourselves so that "cannot open" and "cannot decode" are told apart.
-  std::ifstream in(file, std::ios::binary);
-  if (!in) {
+  if (!readFile(file, b.bytes)) {
     error = "cannot read image " + file.string() + ": " + std::strerror(errno);
     return std::nullopt;
   }
-  const std::vector<char> bytes((std::istreambuf_iterator<char>(in)),
-                                std::istreambuf_iterator<char>());
-  cv::Mat decoded;
+  bool decoded = false;
   try {
-    decoded = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    decoded.release();
+    // Decodes into b.decoded's pixels when size and type are those of the last image.
+    const cv::Mat bytes(1, static_cast<int>(b.bytes.size()), CV_8UC1, b.bytes.data());
+    cv::imdecode(bytes, cv::IMREAD_UNCHANGED, &b.decoded);
+    decoded = !b.decoded.empty();
+  } catch (const cv::Exception&) {
+    decoded = false;
   }
-  if (decoded.empty()) {
+  if (!decoded) {
     error = "cannot decode image " + file.string() +
             ": corrupt, truncated or not an image format OpenCV reads";
     return std::nullopt;
   }
-  if (decoded.depth() != CV_8U) {
-    error = "image " + file.string() + " has " + std::to_string(decoded.elemSize1() * 8) +
+  if (b.decoded.depth() != CV_8U) {
+    error = "image " + file.string() + " has " + std::to_string(b.decoded.elemSize1() * 8) +
             "-bit samples; occmap needs 8-bit grey or colour images";
     return std::nullopt;
   }
-  cv::Mat grey;
-  switch (decoded.channels()) {
+  const cv::Mat* grey = &b.decoded;
+  switch (b.decoded.channels()) {
     case 1:
-      grey = decoded;
       break;
     case 3:
-      cv::cvtColor(decoded, grey, cv::COLOR_BGR2GRAY);
+      cv::cvtColor(b.decoded, b.grey, cv::COLOR_BGR2GRAY);
+      grey = &b.grey;
       break;
     case 4:
-      cv::cvtColor(decoded, grey, cv::COLOR_BGRA2GRAY);
+      cv::cvtColor(b.decoded, b.grey, cv::COLOR_BGRA2GRAY);
+      grey = &b.grey;
       break;
     default:
-      error = "image " + file.string() + " has " + std::to_string(decoded.channels()) +
+      error = "image " + file.string() + " has " + std::to_string(b.decoded.channels()) +
               " channels; occmap needs grey (1), colour (3) or colour with alpha (4)";
       return std::nullopt;
   }
-  Image image(grey.cols, grey.rows);
-  for (int v = 0; v < grey.rows; ++v) {
-    std::memcpy(image.row(v), grey.ptr(v), static_cast<std::size_t>(grey.cols));
+  return ImageView{grey->ptr(), grey->cols, grey->rows, static_cast<std::ptrdiff_t>(grey->step)};
+}
+
+std::optional<Image> readGreyImage(const std::filesystem::path& file, std::string& error) {
+  GreyImageReader reader;
+  const std::optional<ImageView> view = reader.read(file, error);
+  if (!view) return std::nullopt;
+  Image image(view->width, view->height);
+  for (int v = 0; v < view->height; ++v) {
+    std::memcpy(image.row(v), view->row(v), static_cast<std::size_t>(view->width));
   }
   return image;
 }

@@ -29,6 +29,9 @@ struct MapFrame {
   // (fusion may make maps faster than they are sent; those are skipped, not lost).
   std::int64_t seq = 0;
   std::int64_t utime = 0;  // host capture time of the newest fused frame, us since the Unix epoch
+  // When the newest fused frame reached the pipeline (CLOCK_MONOTONIC ns; 0 when none was fused),
+  // for the publisher to measure what the daemon adds to a frame's way (not sent).
+  std::int64_t newest_arrival_ns = 0;
   OccupancyMap map;
   std::vector<CameraContribution> cameras;
 

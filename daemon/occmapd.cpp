@@ -172,8 +172,15 @@ int run(const Options& options) {
           notifier.stopping();
           pipeline->setState(DaemonState::kStopping);
           pipeline->stop();
-          logLine(LogLevel::kNotice, "stopped after %llu maps",
-                  static_cast<unsigned long long>(pipeline->mapsPublished()));
+          const TimeHistogram& latency = pipeline->publishLatency();
+          const TimeHistogram& fusion = pipeline->fusionTimes();
+          logLine(LogLevel::kNotice,
+                  "stopped after %llu maps (%llu skipped); newest frame to published: p50 %.2f "
+                  "ms, p99 %.2f ms, max %.2f ms; fusion p50 %.2f ms, p99 %.2f ms",
+                  static_cast<unsigned long long>(pipeline->mapsPublished()),
+                  static_cast<unsigned long long>(pipeline->mapsSkipped()),
+                  latency.percentileMs(0.5), latency.percentileMs(0.99), latency.maxMs(),
+                  fusion.percentileMs(0.5), fusion.percentileMs(0.99));
           return kExitOk;
         }
       }

@@ -41,22 +41,24 @@ std::string hostName() {
 
 }  // namespace
 
-void Pipeline::FusionTimes::record(std::int64_t ns) {
-  const std::int64_t bin = std::min<std::int64_t>(ns / 50'000, kBins - 1);
-  bins[bin].fetch_add(1, std::memory_order_relaxed);
+void TimeHistogram::record(std::int64_t ns) {
+  const std::int64_t bin = std::clamp<std::int64_t>(ns / 10'000, 0, kBins - 1);
+  bins_[bin].fetch_add(1, std::memory_order_relaxed);
+  count_.fetch_add(1, std::memory_order_relaxed);
+  if (ns > max_ns_.load(std::memory_order_relaxed)) max_ns_.store(ns, std::memory_order_relaxed);
 }
 
-double Pipeline::FusionTimes::percentileMs(double fraction) const {
+double TimeHistogram::percentileMs(double fraction) const {
   std::uint64_t total = 0;
-  for (const auto& bin : bins) total += bin.load(std::memory_order_relaxed);
+  for (const auto& bin : bins_) total += bin.load(std::memory_order_relaxed);
   if (total == 0) return 0.0;
   const auto rank = static_cast<std::uint64_t>(fraction * static_cast<double>(total - 1));
   std::uint64_t seen = 0;
   for (int i = 0; i < kBins; ++i) {
-    seen += bins[i].load(std::memory_order_relaxed);
-    if (seen > rank) return (i + 0.5) * 0.05;  // the bin's middle, in ms
+    seen += bins_[i].load(std::memory_order_relaxed);
+    if (seen > rank) return (i + 0.5) * 0.01;  // the bin's middle, in ms
   }
-  return kBins * 0.05;
+  return kBins * 0.01;
 }
 
 Pipeline::Pipeline(Rig rig, std::vector<CarveTable> tables, PipelineOptions options)
@@ -343,6 +345,7 @@ void Pipeline::fuse(std::int64_t now) {
   const std::int64_t down_after_ns = toNs(options_.camera_down_after);
   MapFrame& out = maps_.writeBuffer();
   std::int64_t newest = 0;
+  std::int64_t newest_arrival = 0;
   for (std::size_t k = 0; k < held_.size(); ++k) {
     Held& held = held_[k];
     const CameraState state = counters_[k]->state.load(std::memory_order_relaxed);
@@ -354,13 +357,17 @@ void Pipeline::fuse(std::int64_t now) {
     out.cameras[k] =
         CameraContribution{state, used, used ? static_cast<std::int64_t>(held.frame->sequence) : -1,
                            used ? held.frame->capture_time_us : 0};
-    if (used) newest = std::max(newest, held.frame->capture_time_us);
+    if (used) {
+      newest = std::max(newest, held.frame->capture_time_us);
+      newest_arrival = std::max(newest_arrival, held.frame->monotonic_ns);
+    }
     held.fresh = false;
   }
   const std::int64_t began = monotonicNanoseconds();
   kernel_.fuse(changed_, out.map.cells);
   fusion_times_.record(monotonicNanoseconds() - began);
   out.utime = newest != 0 ? newest : hostTimeMicroseconds();
+  out.newest_arrival_ns = newest_arrival;
   if (maps_.publish()) maps_skipped_.fetch_add(1, std::memory_order_relaxed);
   wake(publish_wakeup_);
   set_deadline_ns_ = 0;
@@ -488,6 +495,9 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
     map.seq = next_seq++;
     const std::span<const std::uint8_t> message = encoder.encode(map);
     if (!message.empty() && bus.publish(transport.map_channel, message)) {
+      if (map.newest_arrival_ns != 0) {
+        publish_latency_.record(monotonicNanoseconds() - map.newest_arrival_ns);
+      }
       maps_published_.fetch_add(1, std::memory_order_relaxed);
     } else {
       publish_errors_.fetch_add(1, std::memory_order_relaxed);

@@ -50,6 +50,22 @@ struct PipelineOptions {
   std::uint64_t stall_fusion_after_maps = 0;
 };
 
+// Durations as a histogram: one writer thread, readers anywhere, no locks. 10 us bins up to
+// 100 ms (the last holds the rest), and the exact maximum.
+class TimeHistogram {
+ public:
+  static constexpr int kBins = 10'000;
+  void record(std::int64_t ns);
+  double percentileMs(double fraction) const;
+  double maxMs() const { return static_cast<double>(max_ns_.load(std::memory_order_relaxed)) / 1e6; }
+  std::uint64_t count() const { return count_.load(std::memory_order_relaxed); }
+
+ private:
+  std::atomic<std::uint32_t> bins_[kBins] = {};
+  std::atomic<std::uint64_t> count_{0};
+  std::atomic<std::int64_t> max_ns_{0};
+};
+
 // The live daemon's data path (ARCHITECTURE.md, "Threads and data flow"):
 //   one capture thread per camera -> a lock-free SPSC ring per camera -> the fusion thread ->
 //   a triple-buffered map -> the LCM thread (publishes maps and status, answers requests).
@@ -74,6 +90,11 @@ class Pipeline {
   // For the main thread (any thread may call these).
   std::uint64_t mapsFused() const { return maps_fused_.load(std::memory_order_relaxed); }
   std::uint64_t mapsPublished() const { return maps_published_.load(std::memory_order_relaxed); }
+  // How long fusion takes per frame set, and how long from the arrival of a map's newest frame
+  // (its capture thread's copy into the ring) to the return of its publish: what the daemon adds
+  // to a frame's way to the network.
+  const TimeHistogram& fusionTimes() const { return fusion_times_; }
+  const TimeHistogram& publishLatency() const { return publish_latency_; }
   // Maps the publisher never took because fusion made a newer one first (it publishes the newest).
   // fused = published + skipped + publish errors.
   std::uint64_t mapsSkipped() const { return maps_skipped_.load(std::memory_order_relaxed); }
@@ -120,13 +141,6 @@ class Pipeline {
     std::mutex error_mutex;
     std::string last_error;
   };
-  // Fusion time histogram: one writer (fusion), one reader (status).
-  struct FusionTimes {
-    static constexpr int kBins = 2000;  // 50 us each, up to 100 ms; the last bin holds the rest
-    std::atomic<std::uint32_t> bins[kBins] = {};
-    void record(std::int64_t ns);
-    double percentileMs(double fraction) const;
-  };
 
   void captureLoop(std::size_t camera);
   void fusionLoop();
@@ -142,7 +156,8 @@ class Pipeline {
   std::vector<std::unique_ptr<CameraCounters>> counters_;
   std::vector<std::unique_ptr<RateLimit>> drop_warnings_;
   TripleBuffer<MapFrame> maps_;
-  FusionTimes fusion_times_;
+  TimeHistogram fusion_times_;
+  TimeHistogram publish_latency_;  // written by the LCM thread
 
   // Fusion thread state: the newest frame held from each ring, and whether it is new since the
   // last map.

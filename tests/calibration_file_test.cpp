@@ -345,6 +345,113 @@ TEST(OpenCvYaml, ProjectsLikeCvProjectPoints) {
   }
 }
 
+// A lens whose radial polynomial turns (k3 < 0: maxRadius() about 1.25, some 51 degrees off axis)
+// on a camera 3.2 units above the floor looking straight down, so that every ray inside that
+// radius meets the floor in front of the camera.
+OpenCvFile turningLensLookingDown() {
+  OpenCvFile file;
+  file.distortion = (cv::Mat_<double>(1, 5) << -0.28, 0.07, 1e-3, -5e-4, -0.02);
+  file.rvec = (cv::Mat_<double>(3, 1) << std::numbers::pi, 0, 0);
+  return file;
+}
+
+// Past the radius where the polynomial stops increasing, cv::projectPoints folds points back into
+// the picture, where they would carve cells they are not in. Our model gives no result there, in
+// both directions, and exactly at that radius, not somewhere inside it.
+TEST(OpenCvYaml, RefusesPastTheMonotonicRadiusInBothDirections) {
+  const TemporaryFolder folder;
+  const OpenCvFile file = turningLensLookingDown();
+  const LoadedCalibration loaded = loadCalibration(file.write(folder.file("lens.yml")));
+  const auto& camera = dynamic_cast<const OpenCvCamera&>(*loaded.model);
+  const double max_radius = camera.maxRadius();
+  ASSERT_TRUE(std::isfinite(max_radius));
+  const Eigen::Matrix3d rotation = camera.pose().rotation;
+  const Eigen::Vector3d translation = camera.pose().translation;
+  const auto& d = camera.parameters().distortion;
+  const double s = max_radius * max_radius;
+  // The normalised image radius of a point at max_radius (radially; tangential terms add < 1 %).
+  const double image_radius = max_radius * (1.0 + s * (d[0] + s * (d[1] + s * d[4])));
+  const double fx = camera.parameters().fx, fy = camera.parameters().fy;
+  const double cx = camera.parameters().cx, cy = camera.parameters().cy;
+  for (int k = 0; k < 36; ++k) {
+    const double angle = 2 * std::numbers::pi * k / 36;
+    const auto worldAt = [&](double radius) {
+      const double depth = 3.2;
+      const Eigen::Vector3d in_camera(radius * std::cos(angle) * depth,
+                                      radius * std::sin(angle) * depth, depth);
+      return Eigen::Vector3d(rotation.transpose() * (in_camera - translation));
+    };
+    EXPECT_TRUE(camera.worldToImage(worldAt(0.999 * max_radius))) << "angle " << angle;
+    for (const double past : {1.001, 1.3, 2.0}) {
+      EXPECT_FALSE(camera.worldToImage(worldAt(past * max_radius)))
+          << past << " x maxRadius, angle " << angle << ": a folded-back point got a pixel";
+    }
+    // OpenCV does give such a point a pixel, folded back inside the image of maxRadius.
+    std::vector<cv::Point2d> folded;
+    const Eigen::Vector3d w = worldAt(1.3 * max_radius);
+    cv::projectPoints(std::vector<cv::Point3d>{{w.x(), w.y(), w.z()}}, file.rvec, file.tvec,
+                      file.camera_matrix, file.distortion, folded);
+    EXPECT_LT(std::hypot((folded[0].x - cx) / fx, (folded[0].y - cy) / fy), image_radius);
+
+    const auto pixelAt = [&](double radius) {
+      return Eigen::Vector2d(cx + fx * radius * std::cos(angle),
+                             cy + fy * radius * std::sin(angle));
+    };
+    EXPECT_TRUE(camera.imageToPlane(pixelAt(0.95 * image_radius), 0.0)) << "angle " << angle;
+    for (const double past : {1.05, 1.5, 3.0}) {
+      EXPECT_FALSE(camera.imageToPlane(pixelAt(past * image_radius), 0.0))
+          << past << " x the image of maxRadius, angle " << angle << ": a pixel no ray reaches "
+          << "met the floor";
+      EXPECT_FALSE(camera.imageToRay(pixelAt(past * image_radius))) << past;
+    }
+  }
+}
+
+// A pixel's floor point images back into that pixel, everywhere in the picture and, for the lens
+// that turns, out to just inside the image of its monotonic radius.
+TEST(OpenCvYaml, ImageToPlaneToImageRoundTrips) {
+  const TemporaryFolder folder;
+  OpenCvFile steady = turningLensLookingDown();
+  steady.distortion.at<double>(4) = 0.0;  // k3 = 0: increasing for ever
+  std::mt19937_64 random(20240612);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const OpenCvFile& file : {steady, turningLensLookingDown()}) {
+    const LoadedCalibration loaded = loadCalibration(file.write(folder.file("lens.yml")));
+    const auto& camera = dynamic_cast<const OpenCvCamera&>(*loaded.model);
+    const auto& p = camera.parameters();
+    std::vector<Eigen::Vector2d> pixels;
+    pixels.reserve(2500);
+    for (int i = 0; i < 2000; ++i) {
+      pixels.emplace_back(-0.5 + p.width * unit(random), -0.5 + p.height * unit(random));
+    }
+    if (std::isfinite(camera.maxRadius())) {
+      const double s = camera.maxRadius() * camera.maxRadius();
+      const auto& d = p.distortion;
+      const double image_radius = camera.maxRadius() * (1.0 + s * (d[0] + s * (d[1] + s * d[4])));
+      for (int i = 0; i < 500; ++i) {
+        const double radius = 0.95 * image_radius * std::sqrt(unit(random));
+        const double angle = 2 * std::numbers::pi * unit(random);
+        pixels.emplace_back(p.cx + p.fx * radius * std::cos(angle),
+                            p.cy + p.fy * radius * std::sin(angle));
+      }
+    }
+    double worst = 0;
+    for (const Eigen::Vector2d& pixel : pixels) {
+      const std::optional<PlanePoint> floor = camera.imageToPlane(pixel, 0.0);
+      ASSERT_TRUE(floor) << "pixel " << pixel.transpose()
+                         << " has no floor point, k3 = " << p.distortion[4];
+      EXPECT_NEAR(floor->world.z(), 0.0, 1e-12);
+      const std::optional<ImagePoint> back = camera.worldToImage(floor->world);
+      ASSERT_TRUE(back) << "the floor point of pixel " << pixel.transpose() << " has no image";
+      EXPECT_NEAR(back->depth, floor->depth, 1e-9);
+      worst = std::max(worst, (back->pixel - pixel).norm());
+    }
+    EXPECT_LT(worst, 1e-6) << "pixels from where they started, k3 = " << p.distortion[4];
+    std::printf("image -> floor -> image, k3 = %g: worst %.2g px over %zu pixels\n",
+                p.distortion[4], worst, pixels.size());
+  }
+}
+
 InputError openCvError(const OpenCvFile& file) {
   const TemporaryFolder folder;
   const fs::path path = file.write(folder.file("bad.yml"));

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "capture/files_source.h"
 #include "capture/image_file.h"
 #include "command_runner.h"
 #include "core/carve_table.h"
@@ -16,6 +17,7 @@
 namespace occmap {
 namespace {
 
+using testing::readWhole;
 using testing::runCommand;
 using testing::TemporaryFolder;
 using testing::writeText;
@@ -152,6 +154,34 @@ cameras:
   }
 };
 
+// The files:// source under fuse and occmapd: every frame is the file's grey image, decoded into
+// the same buffer frame after frame (no pixel memory allocated per frame on the daemon's capture
+// thread).
+TEST(FilesSource, ReadsEveryFrameIntoTheSameBuffer) {
+  FilesRig rig;
+  std::string error;
+  const auto source = FilesSource::open((rig.folder / "frames" / "*.png").string(), error);
+  ASSERT_NE(source, nullptr) << error;
+  const char* names[] = {"frame1.png", "frame2.png", "frame10.png"};
+  const std::uint8_t* first_pixels = nullptr;
+  for (const char* name : names) {
+    Frame frame;
+    ASSERT_EQ(source->read(frame), FrameSource::Status::kFrame) << source->lastError();
+    if (first_pixels == nullptr) first_pixels = frame.image.data;
+    EXPECT_EQ(frame.image.data, first_pixels) << name << " was decoded into a new buffer";
+    const Image expected = *readGreyImage(rig.folder / "frames" / name, error);
+    ASSERT_EQ(frame.image.width, expected.width());
+    ASSERT_EQ(frame.image.height, expected.height());
+    for (int v = 0; v < expected.height(); ++v) {
+      ASSERT_TRUE(
+          std::equal(expected.row(v), expected.row(v) + expected.width(), frame.image.row(v)))
+          << name << " row " << v;
+    }
+  }
+  Frame end;
+  EXPECT_EQ(source->read(end), FrameSource::Status::kEnd);
+}
+
 TEST(OccmapFuse, WritesOnlyMapsAndTheyEqualTheReferenceFusion) {
   FilesRig rig;
   const auto out = rig.folder / "maps";
@@ -248,6 +278,47 @@ cameras:
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("small.yaml:6"), std::string::npos) << result.err;
   EXPECT_NE(result.err.find("50x50"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(out)) << "a wrong-size background left " << out;
+  // A broken calibration is found before the folder is made, and old maps are kept.
+  std::string broken = kDownwardXml;
+  broken.replace(broken.find("focal=\"2.0\" "), 12, "");
+  writeText(rig.folder / "broken.xml", broken);
+  std::string text = readWhole(rig.folder / "rig.yaml");
+  text.replace(text.find("down.xml"), 8, "broken.xml");
+  writeText(rig.folder / "broken.yaml", text);
+  result = runCommand(
+      {kOccmap, "fuse", "--config", (rig.folder / "broken.yaml").string(), "--out", out.string()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("broken.xml:4"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("Intrinsic.focal"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(out)) << "a broken calibration left " << out;
+  const auto earlier = rig.folder / "earlier";
+  std::filesystem::create_directories(earlier);
+  writeText(earlier / "map_000000.png", "an earlier run's map");
+  result = runCommand({kOccmap, "fuse", "--config", (rig.folder / "broken.yaml").string(), "--out",
+                       earlier.string(), "--overwrite"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_TRUE(std::filesystem::exists(earlier / "map_000000.png"))
+      << "a refused run must not remove the maps of an earlier one";
+}
+
+// A files:// glob in a folder that does not exist says so (not that a folder is unreadable), at
+// the config line of the source.
+TEST(OccmapFuse, SourceInAMissingFolderSaysItDoesNotExist) {
+  FilesRig rig;
+  std::string text = readWhole(rig.folder / "rig.yaml");
+  text.replace(text.find("files://frames/*.png"), 20, "files://no-such-folder/*.png");
+  writeText(rig.folder / "missing.yaml", text);
+  const auto out = rig.folder / "maps";
+  const auto result = runCommand(
+      {kOccmap, "fuse", "--config", (rig.folder / "missing.yaml").string(), "--out", out.string()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("missing.yaml:5"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find((rig.folder / "no-such-folder").string() + " does not exist"),
+            std::string::npos)
+      << result.err;
+  EXPECT_EQ(result.err.find("unreadable"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(out));
 }
 
 TEST(OccmapFuse, SimulatedRoomIsScoredAgainstItsGroundTruth) {

@@ -1,9 +1,11 @@
 // The Python example (examples/python/map_subscriber.py), run as a user would with Debian's
 // python3: it decodes every map of an LCM log written by LCM's own C++ API (raw and zstd, with
 // other channels and a damaged message in between), and every map a live publisher sends over UDP
-// multicast, in single datagrams and in fragments.
+// multicast, in single datagrams and in fragments (512 x 512 raw maps, which need a larger receive
+// buffer than a stock kernel allows, are python_example_raw_test).
+#include "python_example.h"
+
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -11,38 +13,20 @@
 #include <lcm/lcm-cpp.hpp>
 #include <occmap/status_t.hpp>
 
-#include "child_process.h"
-#include "command_runner.h"
 #include "map_scenes.h"
-#include "network_namespace.h"
-#include "temporary_folder.h"
 #include "transport/map_codec.h"
 
 namespace occmap {
 namespace {
 
-using namespace std::chrono_literals;
 using testing::CellShares;
-using testing::ChildProcess;
+using testing::kPython;
+using testing::kScript;
+using testing::kTypes;
+using testing::missingPython;
+using testing::PythonExampleLive;
 using testing::runCommand;
 using testing::TemporaryFolder;
-
-// Debian's python, where apt puts python3-zstandard (the PATH's python3 may be another one).
-const std::string kPython = "/usr/bin/python3";
-const std::string kScript = OCCMAP_SOURCE_DIR "/examples/python/map_subscriber.py";
-const std::string kTypes = OCCMAP_BINARY_DIR "/lcmtypes/python";
-const std::string kPublisher = OCCMAP_BINARY_DIR "/tests/map_publisher";
-
-// Why the example cannot run here, or "".
-std::string missingPython() {
-  if (!std::filesystem::exists(kPython))
-    return kPython + " is missing (Debian: apt install python3)";
-  const auto result = runCommand({kPython, "-c", "import zstandard"});
-  if (result.exit_code != 0) {
-    return kPython + " has no zstandard module (Debian: apt install python3-zstandard)";
-  }
-  return "";
-}
 
 // What the script printed for one map.
 struct PrintedMap {
@@ -186,35 +170,6 @@ TEST(PythonExample, DecodesEveryMapOfAnLcmLog) {
   EXPECT_EQ(result.exit_code, 3) << result.out << result.err;
 }
 
-class PythonExampleLive : public ::testing::Test {
- protected:
-  void SetUp() override {
-    if (const std::string why = missingPython(); !why.empty()) GTEST_SKIP() << why;
-    const std::string& problem = testing::enterPrivateNetwork();
-    if (!problem.empty()) GTEST_SKIP() << problem;
-  }
-
-  // Runs the script on the network while the publisher runs each of `runs`; returns its output.
-  std::string receive(const std::string& url, int maps,
-                      const std::vector<std::vector<std::string>>& runs) {
-    ChildProcess script({kPython, kScript, "--types", kTypes, "--lcm-url", url, "--count",
-                         std::to_string(maps), "--timeout", "15"},
-                        folder_ / "script");
-    EXPECT_TRUE(script.waitForOutput("listening for maps", 10s)) << script.out() << script.err();
-    for (std::vector<std::string> run : runs) {
-      run.insert(run.begin(), kPublisher);
-      run.insert(run.end(), {"--lcm-url", url});
-      const auto result = runCommand(run);
-      EXPECT_EQ(result.exit_code, 0) << result.out << result.err;
-    }
-    const auto code = script.waitExit(20s);
-    EXPECT_EQ(code, std::optional<int>(0)) << script.out() << script.err();
-    return script.out();
-  }
-
-  TemporaryFolder folder_;
-};
-
 // Single datagrams (zstd, 512 x 512) and fragments (raw 256 x 256: 65 669 bytes, two fragments).
 TEST_F(PythonExampleLive, ReceivesMapsInDatagramsAndFragments) {
   const std::string out = receive("udpm://239.255.76.67:7667?ttl=0", 20,
@@ -229,22 +184,6 @@ TEST_F(PythonExampleLive, ReceivesMapsInDatagramsAndFragments) {
     testing::fillScene(frame, seq);
     expectPrinted(printed, frame, testing::sceneCameraNames(4));
   }
-}
-
-// 512 x 512 raw maps: 262 307 bytes in five fragments, which need a receive buffer larger than
-// Linux's default (net.core.rmem_max caps what recv_buf_size can get).
-TEST_F(PythonExampleLive, ReceivesLargeRawMapsWithALargeReceiveBuffer) {
-  std::ifstream rmem_max("/proc/sys/net/core/rmem_max");
-  long bytes = 0;
-  rmem_max >> bytes;
-  if (bytes < 4194304) {
-    GTEST_SKIP() << "net.core.rmem_max is " << bytes << "; raw 512 x 512 maps need a 4 MiB "
-                 << "receive buffer (sysctl -w net.core.rmem_max=4194304), which this test does "
-                 << "not change for the machine";
-  }
-  const std::string out = receive("udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304", 15,
-                                  {{"--count", "15", "--rate", "15", "--encoding", "raw"}});
-  EXPECT_NE(out.find("maps 15, lost 0 (seq gaps), undecodable 0"), std::string::npos) << out;
 }
 
 }  // namespace

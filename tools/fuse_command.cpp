@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 #include <string_view>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -46,16 +47,11 @@ bool isMapFile(const fs::path& path) {
 }
 
 // The output folder holds our maps and nothing else: refuse one with other files in it, and old
-// maps unless the user said to replace them.
-void prepareOutput(const fs::path& out, bool overwrite) {
+// maps unless the user said to replace them. Only looks: returns the old maps to remove, and
+// nothing is changed on disk until the whole rig has been checked too (makeOutput).
+std::vector<fs::path> checkOutput(const fs::path& out, bool overwrite) {
   std::error_code error;
-  if (!fs::exists(out, error)) {
-    if (!fs::create_directories(out, error)) {
-      throw InputError(out.string(), 0, "--out",
-                       "cannot create the output folder: " + error.message());
-    }
-    return;
-  }
+  if (!fs::exists(out, error)) return {};
   if (!fs::is_directory(out, error)) {
     throw InputError(out.string(), 0, "--out", "is not a folder; give a new or empty folder");
   }
@@ -74,6 +70,16 @@ void prepareOutput(const fs::path& out, bool overwrite) {
                      "already holds " + std::to_string(old_maps.size()) +
                          " maps from an earlier run; pass --overwrite to replace them, or give "
                          "another folder");
+  }
+  return old_maps;
+}
+
+// The folder as checkOutput found it, made ready: created, or emptied of the old maps.
+void makeOutput(const fs::path& out, const std::vector<fs::path>& old_maps) {
+  std::error_code error;
+  if (!fs::exists(out, error) && !fs::create_directories(out, error)) {
+    throw InputError(out.string(), 0, "--out",
+                     "cannot create the output folder: " + error.message());
   }
   for (const fs::path& map : old_maps) fs::remove(map);
 }
@@ -125,8 +131,11 @@ int run(const FuseOptions& o) {
     throw InputError(o.snapshot, 0, "--snapshot",
                      "must not go into the maps' folder, which holds only map_NNNNNN.png files");
   }
-  prepareOutput(out, o.overwrite);
+  // Everything that can be wrong with the input is found before anything is written: a bad
+  // calibration, source or background must not leave an empty or emptied folder behind.
+  const std::vector<fs::path> old_maps = checkOutput(out, o.overwrite);
   PreparedRig prepared = prepareRig(config, "fuse");
+  makeOutput(out, old_maps);
   Rig& rig = prepared.rig;
   const std::vector<CarveTable>& tables = prepared.tables;
   const double column_height = prepared.column_height_m;
@@ -135,6 +144,7 @@ int run(const FuseOptions& o) {
   std::optional<sim::TruthMaker> truth_maker;
   if (rig.commonScene() != nullptr) {
     std::vector<const sim::Renderer*> renderers;
+    renderers.reserve(cameras.size());
     for (const RigCamera& camera : cameras) renderers.push_back(&camera.sim->renderer());
     truth_maker.emplace(renderers, config.map);
   }
