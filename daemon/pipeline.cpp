@@ -413,6 +413,7 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
   }
 
   const std::string host = hostName();
+  const std::string config_file = config.file.string();  // made once: the status allocates nothing
   const std::int64_t status_period_ns = toNs(options_.status_period);
   const std::int64_t daemon_start_ns =
       toNs(options_.daemon_start.time_since_epoch());  // steady_clock is CLOCK_MONOTONIC
@@ -440,7 +441,7 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
     status.utime = hostTimeMicroseconds();
     status.request_id = request_id;
     status.hostname = host;
-    status.config_file = config.file.string();
+    status.config_file = config_file;
     status.state = static_cast<std::int8_t>(state_.load(std::memory_order_relaxed));
     status.uptime_s = static_cast<double>(now - daemon_start_ns) / 1e9;
     const std::uint64_t published = maps_published_.load(std::memory_order_relaxed);

@@ -17,53 +17,20 @@
 #include <occmap/status_t.hpp>
 #include <zstd.h>
 
+#include "allocation_counter.h"
 #include "capture/sim/renderer.h"
 #include "capture/sim/scene.h"
 #include "core/reference_fusion.h"
 #include "core/tsai_camera.h"
 #include "map_scenes.h"
 
-// Every operator new of this program is counted while `g_counting` is set, with the largest size
-// asked for. (new[] and the nothrow forms go through these in libstdc++.)
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<long> g_allocations{0};
-std::atomic<std::size_t> g_largest{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  if (g_counting.load(std::memory_order_relaxed)) {
-    g_allocations.fetch_add(1, std::memory_order_relaxed);
-    std::size_t largest = g_largest.load(std::memory_order_relaxed);
-    while (size > largest && !g_largest.compare_exchange_weak(largest, size)) {
-    }
-  }
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-// Not inlined, so that GCC sees new paired with delete and not with free (-Wmismatched-new-delete).
-__attribute__((noinline)) void operator delete(void* p) noexcept { std::free(p); }
-__attribute__((noinline)) void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-
 namespace occmap {
 namespace {
 
+using testing::AllocationCounter;
 using testing::cellShares;
 using testing::fillScene;
 using testing::sceneCameraNames;
-
-// Counts the allocations of one stretch of code.
-class AllocationCounter {
- public:
-  AllocationCounter() {
-    g_allocations = 0;
-    g_largest = 0;
-    g_counting = true;
-  }
-  ~AllocationCounter() { g_counting = false; }
-  long allocations() const { return g_allocations.load(); }
-  std::size_t largest() const { return g_largest.load(); }
-};
 
 MapFrame sceneFrame(const MapGeometry& geometry, std::size_t cameras, std::int64_t number) {
   MapFrame frame(geometry, cameras);

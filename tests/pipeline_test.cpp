@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "allocation_counter.h"
 #include "daemon/config.h"
 #include "sim_reference.h"
 #include "sim_room_config.h"
@@ -125,6 +126,34 @@ TEST(Pipeline, ShutdownUnderLoadLeavesNoThreadAndLosesNoFusedMap) {
         << "trial " << trial << ": a fused map was neither published nor counted as skipped";
     EXPECT_EQ(received.load(), pipeline.mapsPublished()) << "trial " << trial;
   }
+}
+
+// The hot path (capture -> fusion -> publish) allocates nothing once running, and neither does the
+// once-a-second status: over seconds of steady work at 30 frame sets a second, no operator new
+// from any thread. (LCM's C code uses malloc, which this does not see: only occmap's own code is
+// held to it.)
+TEST(Pipeline, RunningSteadilyAllocatesNothing) {
+  TemporaryFolder folder;
+  const Config config = loadConfig(folder.write("room.yaml", testing::simRoomConfig("memq://")));
+  Rig rig = Rig::open(config);
+  std::vector<CarveTable> tables = rig.buildTables(0.0);
+  Pipeline pipeline(std::move(rig), std::move(tables));
+  pipeline.start();
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // warmed up, statuses sent
+  long allocations = 0;
+  std::size_t largest = 0;
+  const std::uint64_t maps_before = pipeline.mapsPublished();
+  {
+    testing::AllocationCounter counter;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+    allocations = counter.allocations();
+    largest = counter.largest();
+  }
+  const std::uint64_t maps = pipeline.mapsPublished() - maps_before;
+  pipeline.stop();
+  EXPECT_GE(maps, 20u) << "the pipeline should have been working meanwhile";
+  EXPECT_EQ(allocations, 0) << allocations << " allocations (the largest " << largest
+                            << " bytes) over " << maps << " maps and two statuses";
 }
 
 }  // namespace
