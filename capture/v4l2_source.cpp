@@ -431,9 +431,11 @@ OpenResult V4l2Source::applyControls() {
     }
   }
   for (const auto& [name, value] : settings_.controls) {
-    const auto control = std::find_if(controls.begin(), controls.end(), [&](const auto& c) {
-      return nameKey(reinterpret_cast<const char*>(c.name)) == nameKey(name);
-    });
+    // An init-capture: clang 14 cannot capture a structured binding (C++20's P1091).
+    const auto control =
+        std::find_if(controls.begin(), controls.end(), [&name = name](const auto& c) {
+          return nameKey(reinterpret_cast<const char*>(c.name)) == nameKey(name);
+        });
     if (control == controls.end()) {
       std::string names;
       for (const v4l2_queryctrl& c : controls) {

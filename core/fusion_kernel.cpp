@@ -1,98 +1,289 @@
 #include "core/fusion_kernel.h"
 
 #include <algorithm>
+#include <bit>
 #include <stdexcept>
+#include <utility>
+
+#include "core/fusion_steps.h"
 
 namespace occmap {
+namespace {
 
-void markChangedPixels(ImageView live, ImageView background, int threshold, std::uint8_t* changed) {
-  for (int v = 0; v < live.height; ++v) {
-    const std::uint8_t* a = live.row(v);
-    const std::uint8_t* b = background.row(v);
-    std::uint8_t* out = changed + static_cast<std::ptrdiff_t>(v) * live.width;
-    for (int u = 0; u < live.width; ++u) {
-      const int difference = int{a[u]} - int{b[u]};
-      out[u] = (difference < 0 ? -difference : difference) >= threshold ? 1 : 0;
-    }
+std::size_t tilesAcross(int width) { return (static_cast<std::size_t>(width) + 7) / 8; }
+std::size_t tilesDown(int height) { return (static_cast<std::size_t>(height) + 7) / 8; }
+
+// writeCellStates computes the states as numbers: 2 - seen - free.
+static_assert(static_cast<int>(CellState::kFree) == 0 &&
+              static_cast<int>(CellState::kOccupied) == 1 &&
+              static_cast<int>(CellState::kUnseen) == 2);
+
+// Cells a one-pixel entry can name (the bit position takes the low 6 bits).
+constexpr std::size_t kOnePixelCells = std::size_t{1} << 26;
+
+enum List { kOne, kSeveral, kSpread };
+
+// One entry of a camera's tile lists before they are laid out: a cell under a tile.
+struct Entry {
+  std::uint32_t tile;
+  std::uint32_t cell;
+  std::uint64_t pixels;  // kOne, kSeveral: the cell's pixels in the tile
+  List list;
+  std::uint32_t piece_first;  // kSpread: the cell's (tile, pixels) pieces
+  std::uint32_t piece_count;
+};
+
+// Fills a list's `first` from per-tile counts over the active tiles; returns the entry count and
+// leaves in `next` where each tile's entries start.
+std::uint32_t layOut(const std::vector<std::uint32_t>& tiles,
+                     const std::vector<std::uint32_t>& count, std::vector<std::uint32_t>& first,
+                     std::vector<std::uint32_t>& next) {
+  std::uint32_t entries = 0;
+  for (const std::uint32_t tile : tiles) {
+    first.push_back(entries);
+    next[tile] = entries;
+    entries += count[tile];
+  }
+  first.push_back(entries);
+  return entries;
+}
+
+}  // namespace
+
+std::size_t changedMaskBytes(int width, int height) {
+  return tilesAcross(width) * tilesDown(height) * 8;
+}
+
+void markChangedPixels(ImageView live, ImageView background, int threshold, std::uint8_t* changed,
+                       KernelPath path) {
+  // The vector code compares against threshold - 1 in a byte; the rest (every pixel changed, or
+  // none) is left to the scalar code, which handles any threshold.
+  if (path == KernelPath::kSimd && threshold >= 1 && threshold <= 255) {
+    fusion_steps::markChangedTiles(live, background, threshold, nullptr, changed);
+  } else {
+    fusion_steps::markChangedTilesScalar(live, background, threshold, nullptr, changed);
   }
 }
 
-FusionKernel::FusionKernel(std::span<const CarveTable> tables) {
+void FusionKernel::markChangedPixels(std::size_t k, ImageView live, ImageView background,
+                                     int threshold, std::uint8_t* changed) const {
+  const CameraTable& camera = cameras_.at(k);
+  for (const ImageView* image : {&live, &background}) {
+    if (image->width != camera.image_width || image->height != camera.image_height) {
+      throw std::invalid_argument("markChangedPixels: image size differs from the table's");
+    }
+  }
+  if (path_ == KernelPath::kSimd && threshold >= 1 && threshold <= 255) {
+    fusion_steps::markChangedTiles(live, background, threshold, camera.needed_strips.data(),
+                                   changed);
+  } else {
+    fusion_steps::markChangedTilesScalar(live, background, threshold, camera.needed_strips.data(),
+                                         changed);
+  }
+}
+
+FusionKernel::FusionKernel(std::span<const CarveTable> tables, KernelPath path) : path_(path) {
   if (tables.size() > kMaxCameras) {
     throw std::invalid_argument("the fusion kernel takes at most 64 cameras");
   }
-  const std::size_t cells = tables.empty() ? 0 : tables.front().map().cellCount();
-  seen_by_.assign(cells, 0);
-  blocked_.assign(cells, 0);
-  for (std::size_t k = 0; k < tables.size(); ++k) {
-    const CarveTable& table = tables[k];
-    if (table.map().cellCount() != cells) {
+  cell_count_ = tables.empty() ? 0 : tables.front().map().cellCount();
+  if (cell_count_ >= std::size_t{0xFFFFFFFF}) {
+    throw std::invalid_argument("the fusion kernel takes maps of fewer than 2^32 - 1 cells");
+  }
+  const std::size_t words = (cell_count_ + 63) / 64;
+  // One stamp per cell, then the sink that stores for cells not blocked go to (no branch per
+  // entry), padded to whole words.
+  blocked_.assign((words + 1) * 64, 0);
+  free_.assign(words, 0);
+  seen_.assign(words, 0);
+  for (const CarveTable& table : tables) {
+    if (table.map().cellCount() != cell_count_) {
       throw std::invalid_argument("carve tables of different maps");
     }
-    // Transpose the table (cell -> pixels) into pixel -> cells: the walk follows the image.
-    const std::size_t pixels = static_cast<std::size_t>(table.imageWidth()) *
-                               static_cast<std::size_t>(table.imageHeight());
-    CameraTable camera{table.rule(), std::vector<std::uint32_t>(pixels + 1, 0), {}, {}};
-    for (std::size_t cell = 0; cell < cells; ++cell) {
-      for (const std::uint32_t pixel : table.pixelsOf(cell)) ++camera.pixel_offsets[pixel + 1];
-      if (table.sees(cell)) {
-        camera.seen_cells.push_back(static_cast<std::uint32_t>(cell));
-        seen_by_[cell] |= std::uint64_t{1} << k;
-      }
-    }
-    for (std::size_t p = 1; p <= pixels; ++p)
-      camera.pixel_offsets[p] += camera.pixel_offsets[p - 1];
-    camera.pixel_cells.resize(camera.pixel_offsets[pixels]);
-    std::vector<std::uint32_t> fill(camera.pixel_offsets.begin(), camera.pixel_offsets.end() - 1);
-    for (std::size_t cell = 0; cell < cells; ++cell) {
-      for (const std::uint32_t pixel : table.pixelsOf(cell)) {
-        camera.pixel_cells[fill[pixel]++] = static_cast<std::uint32_t>(cell);
-      }
-    }
-    cameras_.push_back(std::move(camera));
+    cameras_.push_back(turnAround(table));
   }
 }
 
-void FusionKernel::fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out) {
-  if (changed.size() != cameras_.size() || out.size() != seen_by_.size()) {
-    throw std::invalid_argument("fuse: one mask per camera and one state per cell");
-  }
-  std::uint64_t live = 0;
-  for (std::size_t k = 0; k < changed.size(); ++k) {
-    if (changed[k] != nullptr) live |= std::uint64_t{1} << k;
-  }
-  // Every cell a live camera sees starts OCCUPIED (the paper's "map starts occupied"), the rest
-  // UNSEEN; then each camera frees what it clears.
-  for (std::size_t cell = 0; cell < out.size(); ++cell) {
-    out[cell] = (seen_by_[cell] & live) != 0 ? CellState::kOccupied : CellState::kUnseen;
-  }
-  for (std::size_t k = 0; k < cameras_.size(); ++k) {
-    const std::uint8_t* mask = changed[k];
-    if (mask == nullptr) continue;
-    const CameraTable& camera = cameras_[k];
-    const std::uint32_t* offsets = camera.pixel_offsets.data();
-    const std::uint32_t* cells = camera.pixel_cells.data();
-    const std::size_t pixels = camera.pixel_offsets.size() - 1;
-    if (camera.rule == CarveRule::kAnyPixel) {
-      for (std::size_t p = 0; p < pixels; ++p) {
-        if (mask[p]) continue;
-        for (std::uint32_t i = offsets[p]; i < offsets[p + 1]; ++i)
-          out[cells[i]] = CellState::kFree;
+// Cell -> pixels becomes tile -> (cell, the cell's pixels in the tile).
+FusionKernel::CameraTable FusionKernel::turnAround(const CarveTable& table) {
+  const std::size_t cells = table.map().cellCount();
+  CameraTable camera;
+  camera.rule = table.rule();
+  camera.image_width = table.imageWidth();
+  camera.image_height = table.imageHeight();
+  camera.seen.assign((cells + 63) / 64, 0);
+  const auto width = static_cast<std::uint32_t>(table.imageWidth());
+  const auto across = static_cast<std::uint32_t>(tilesAcross(table.imageWidth()));
+  const std::size_t tile_count = tilesAcross(table.imageWidth()) * tilesDown(table.imageHeight());
+  std::vector<Entry> entries;                                   // in cell order
+  std::vector<std::pair<std::uint32_t, std::uint64_t>> pieces;  // spread cells' tiles and pixels
+  std::vector<std::pair<std::uint32_t, std::uint64_t>> groups;  // one cell's tiles and pixels
+  for (std::size_t cell = 0; cell < cells; ++cell) {
+    if (!table.sees(cell)) continue;
+    camera.seen[cell / 64] |= std::uint64_t{1} << (cell % 64);
+    groups.clear();
+    for (const std::uint32_t pixel : table.pixelsOf(cell)) {
+      const std::uint32_t u = pixel % width, v = pixel / width;
+      const std::uint32_t tile = v / 8 * across + u / 8;
+      const std::uint64_t bit = std::uint64_t{1} << (v % 8 * 8 + u % 8);
+      auto group = std::find_if(groups.rbegin(), groups.rend(),
+                                [&](const auto& g) { return g.first == tile; });
+      if (group != groups.rend()) {
+        group->second |= bit;
+      } else {
+        groups.emplace_back(tile, bit);
       }
+    }
+    const auto c = static_cast<std::uint32_t>(cell);
+    if (camera.rule == CarveRule::kAnyPixel && groups.size() > 1) {
+      // Floor carving blocks the cell only if all its pixels changed: one look at all its tiles,
+      // from the first, is enough (if that one has no changed pixel, the cell is not blocked).
+      entries.push_back({groups.front().first, c, 0, kSpread,
+                         static_cast<std::uint32_t>(pieces.size()),
+                         static_cast<std::uint32_t>(groups.size())});
+      pieces.insert(pieces.end(), groups.begin(), groups.end());
       continue;
     }
-    if (++stamp_ == 0) {  // the stamps wrapped: forget every old one
-      std::fill(blocked_.begin(), blocked_.end(), 0);
-      stamp_ = 1;
-    }
-    for (std::size_t p = 0; p < pixels; ++p) {
-      if (!mask[p]) continue;
-      for (std::uint32_t i = offsets[p]; i < offsets[p + 1]; ++i) blocked_[cells[i]] = stamp_;
-    }
-    for (const std::uint32_t cell : camera.seen_cells) {
-      if (blocked_[cell] != stamp_) out[cell] = CellState::kFree;
+    for (const auto& [tile, bits] : groups) {
+      const bool one = std::popcount(bits) == 1 && cell < kOnePixelCells;
+      entries.push_back({tile, c, bits, one ? kOne : kSeveral, 0, 0});
     }
   }
+  // Then tile -> cells, by counting.
+  std::vector<std::vector<std::uint32_t>> count(3, std::vector<std::uint32_t>(tile_count, 0));
+  for (const Entry& entry : entries) ++count[entry.list][entry.tile];
+  const std::size_t strips_across = (static_cast<std::size_t>(table.imageWidth()) + 63) / 64;
+  camera.needed_strips.assign(strips_across * tilesDown(table.imageHeight()), 0);
+  for (std::size_t tile = 0; tile < tile_count; ++tile) {
+    if (count[kOne][tile] + count[kSeveral][tile] + count[kSpread][tile] > 0) {
+      camera.tiles.push_back(static_cast<std::uint32_t>(tile));
+      camera.needed_strips[tile / across * strips_across + tile % across / 8] = 1;
+    }
+  }
+  std::vector<std::vector<std::uint32_t>> next(3, std::vector<std::uint32_t>(tile_count, 0));
+  // The vector code reads whole vectors of a list past a tile's end: padding keeps that in the
+  // array.
+  constexpr std::size_t kPadding = fusion_steps::kListPadding;
+  camera.one.cell_and_bit.resize(layOut(camera.tiles, count[kOne], camera.one.first, next[kOne]) +
+                                 kPadding);
+  const std::uint32_t several =
+      layOut(camera.tiles, count[kSeveral], camera.several.first, next[kSeveral]);
+  camera.several.pixels.resize(several + kPadding);
+  camera.several.cells.resize(several + kPadding);
+  const std::uint32_t spread =
+      layOut(camera.tiles, count[kSpread], camera.spread.first, next[kSpread]);
+  camera.spread.cells.resize(spread);
+  std::vector<const Entry*> spread_entries(spread);
+  for (const Entry& entry : entries) {
+    const std::uint32_t at = next[entry.list][entry.tile]++;
+    switch (entry.list) {
+      case kOne:
+        camera.one.cell_and_bit[at] =
+            entry.cell << 6 | static_cast<std::uint32_t>(std::countr_zero(entry.pixels));
+        break;
+      case kSeveral:
+        camera.several.pixels[at] = entry.pixels;
+        camera.several.cells[at] = entry.cell;
+        break;
+      case kSpread:
+        camera.spread.cells[at] = entry.cell;
+        spread_entries[at] = &entry;
+        break;
+    }
+  }
+  for (const Entry* entry : spread_entries) {
+    camera.spread.pieces_first.push_back(
+        static_cast<std::uint32_t>(camera.spread.piece_tiles.size()));
+    for (std::uint32_t p = entry->piece_first; p < entry->piece_first + entry->piece_count; ++p) {
+      camera.spread.piece_tiles.push_back(pieces[p].first);
+      camera.spread.piece_pixels.push_back(pieces[p].second);
+    }
+  }
+  camera.spread.pieces_first.push_back(
+      static_cast<std::uint32_t>(camera.spread.piece_tiles.size()));
+  const auto nonzero = [](std::uint64_t w) { return w != 0; };
+  const auto first_seen = std::find_if(camera.seen.begin(), camera.seen.end(), nonzero);
+  const auto last_seen = std::find_if(camera.seen.rbegin(), camera.seen.rend(), nonzero);
+  camera.seen_begin = static_cast<std::size_t>(first_seen - camera.seen.begin());
+  camera.seen_end =
+      std::max(camera.seen_begin, static_cast<std::size_t>(camera.seen.rend() - last_seen));
+  return camera;
 }
+
+std::size_t FusionKernel::tableBytes() const {
+  std::size_t bytes = 0;
+  auto add = [&](const auto& v) { bytes += v.size() * sizeof(v[0]); };
+  for (const CameraTable& camera : cameras_) {
+    add(camera.needed_strips);
+    add(camera.tiles);
+    add(camera.one.first);
+    add(camera.one.cell_and_bit);
+    add(camera.several.first);
+    add(camera.several.pixels);
+    add(camera.several.cells);
+    add(camera.spread.first);
+    add(camera.spread.cells);
+    add(camera.spread.pieces_first);
+    add(camera.spread.piece_tiles);
+    add(camera.spread.piece_pixels);
+    add(camera.seen);
+  }
+  return bytes;
+}
+
+std::uint8_t FusionKernel::nextStamp() {
+  if (++stamp_ == 0) {  // the stamps wrapped: forget every old one
+    std::fill(blocked_.begin(), blocked_.end(), 0);
+    stamp_ = 1;
+  }
+  return stamp_;
+}
+
+void FusionKernel::blockCells(std::size_t k, const std::uint8_t* changed) {
+  const CameraTable& camera = cameras_[k];
+  const fusion_steps::TileLists lists{camera.rule == CarveRule::kEveryPixel,
+                                      camera.tiles.data(),
+                                      camera.tiles.size(),
+                                      camera.one.first.data(),
+                                      camera.one.cell_and_bit.data(),
+                                      camera.several.first.data(),
+                                      camera.several.pixels.data(),
+                                      camera.several.cells.data(),
+                                      camera.spread.first.data(),
+                                      camera.spread.cells.data(),
+                                      camera.spread.pieces_first.data(),
+                                      camera.spread.piece_tiles.data(),
+                                      camera.spread.piece_pixels.data()};
+  const std::uint8_t stamp = nextStamp();
+  const fusion_steps::Blocking blocking{blocked_.data(), static_cast<std::uint32_t>(cell_count_),
+                                        stamp};
+  (path_ == KernelPath::kSimd ? fusion_steps::blockCells : fusion_steps::blockCellsScalar)(
+      lists, changed, blocking);
+}
+
+void FusionKernel::fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out) {
+  if (changed.size() != cameras_.size() || out.size() != cell_count_) {
+    throw std::invalid_argument("fuse: one mask per camera and one state per cell");
+  }
+  // The map starts occupied where a live camera sees it (the paper), unseen elsewhere; each live
+  // camera then frees the cells it sees and its changed pixels do not block.
+  std::fill(free_.begin(), free_.end(), 0);
+  std::fill(seen_.begin(), seen_.end(), 0);
+  for (std::size_t k = 0; k < cameras_.size(); ++k) {
+    if (changed[k] == nullptr) continue;
+    const CameraTable& camera = cameras_[k];
+    blockCells(k, changed[k]);
+    (path_ == KernelPath::kSimd ? fusion_steps::clearUnblocked
+                                : fusion_steps::clearUnblockedScalar)(
+        blocked_.data(), stamp_, camera.seen.data(), free_.data(), seen_.data(), camera.seen_begin,
+        camera.seen_end);
+  }
+  auto* states = reinterpret_cast<std::uint8_t*>(out.data());
+  (path_ == KernelPath::kSimd
+       ? fusion_steps::writeCellStates
+       : fusion_steps::writeCellStatesScalar)(seen_.data(), free_.data(), cell_count_, states);
+}
+
+std::string fusionSimdTarget() { return fusion_steps::simdTargetName(); }
 
 }  // namespace occmap

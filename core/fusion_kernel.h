@@ -1,7 +1,9 @@
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "core/carve_table.h"
@@ -10,24 +12,50 @@
 
 namespace occmap {
 
-// The paper's difference (eqs. 14-15) for one camera frame: 1 where |live - background| >=
-// threshold (changed: no clear ray), 0 where unchanged. This is the capture threads' share of the
-// work, done while the pixels are hot. `changed` has width * height bytes.
-void markChangedPixels(ImageView live, ImageView background, int threshold, std::uint8_t* changed);
+// Which code runs the fusion's vector steps: SIMD through Google Highway, dispatched at run time to
+// the best target of this CPU (AVX2, AVX-512, NEON, ...), or plain scalar C++ that the tests hold
+// the SIMD code to. Both give the same bits.
+enum class KernelPath : std::uint8_t { kSimd, kScalar };
 
-// The fusion as the pipeline runs it: one look-up-table walk per camera, from pixels to the cells
-// they decide, equal cell for cell to fuseReference (tests hold it to that). Built once from the
-// carve tables; fuse() allocates nothing.
+// A camera frame's changed pixels (the paper's image-space occupancy map O_I, eq. 15) as bits, in
+// tiles of 8 x 8 pixels: 64-bit word (v / 8) * ceil(width / 8) + u / 8 holds pixel (u, v) at bit
+// (v % 8) * 8 + u % 8, 1 = changed, little-endian in memory. Tiles, because the pixels that decide
+// one cell are a small blob of the image (floor) or a short, nearly vertical line (column): they
+// fall into one to a few tiles, and one word answers for all of a cell's pixels in a tile at once.
+// The buffer is changedMaskBytes(width, height) bytes.
+std::size_t changedMaskBytes(int width, int height);
+
+// The paper's difference and threshold (eqs. 14-15) for one camera frame: a pixel is changed (no
+// clear ray) when |live - background| >= threshold. This is the capture threads' share of the
+// work, done while the pixels are hot; it writes all changedMaskBytes(width, height) bytes.
+void markChangedPixels(ImageView live, ImageView background, int threshold, std::uint8_t* changed,
+                       KernelPath path = KernelPath::kSimd);
+
+// The fusion as the pipeline runs it, equal cell for cell to fuseReference (tests hold it to that).
+// Built once from the carve tables; fuse() allocates nothing.
 //
-// Floor mode (any pixel clears): every unchanged pixel frees its cells. Column mode (every pixel
-// must be unchanged): every changed pixel blocks its cells for this camera; the camera frees the
-// cells it sees that nothing blocked.
+// The tables are turned around, from cells to the 8 x 8 pixel tiles of the changed mask: each tile
+// lists the cells with pixels in it and, per cell, which of its 64 pixels they are. A camera clears
+// every cell it sees except those its changed pixels block: in column mode (every pixel must be
+// unchanged) a cell is blocked when any of its pixels changed, in floor mode (any unchanged pixel
+// clears) when all of them did. Either way only tiles with a changed pixel are visited (some 15 %
+// of them in the benchmarks' scenes), and nothing is scattered into the map itself: per camera,
+// blocked cells get a stamp, and one pass over the stamps turns them into the camera's cleared
+// bits; a last pass writes the three states.
 class FusionKernel {
  public:
   static constexpr std::size_t kMaxCameras = 64;
 
   // Throws std::invalid_argument for more than kMaxCameras tables or tables of different maps.
-  explicit FusionKernel(std::span<const CarveTable> tables);
+  explicit FusionKernel(std::span<const CarveTable> tables, KernelPath path = KernelPath::kSimd);
+
+  // markChangedPixels for camera k, reading only the pixels that decide some cell: the 64-pixel
+  // strips of each row of tiles that no table entry names (a third to a half of an image: walls,
+  // shelves, ceiling) are written unchanged without being read. Safe to call from one thread per
+  // camera while another runs fuse(). Throws std::invalid_argument when an image's size is not the
+  // camera's table's.
+  void markChangedPixels(std::size_t camera, ImageView live, ImageView background, int threshold,
+                         std::uint8_t* changed) const;
 
   // changed[k]: camera k's changed-pixel mask (markChangedPixels), or nullptr when camera k is not
   // in this frame set (down or late): then its cells count only if another camera sees them.
@@ -35,19 +63,60 @@ class FusionKernel {
   void fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out);
 
   std::size_t cameraCount() const { return cameras_.size(); }
+  // Bytes of the turned-around tables (what fuse() may read besides the masks).
+  std::size_t tableBytes() const;
 
  private:
-  struct CameraTable {
-    CarveRule rule;
-    std::vector<std::uint32_t> pixel_offsets;  // per stream pixel + 1 (CSR)
-    std::vector<std::uint32_t> pixel_cells;    // cells each pixel decides
-    std::vector<std::uint32_t> seen_cells;     // cells the camera sees, ascending
+  // A tile's cells come in three lists, so that the common case costs least: cells decided by one
+  // pixel of the tile (a bit position), cells with several pixels in it (a 64-bit mask), and, in
+  // floor mode only, cells with pixels in other tiles too ("spread"), listed once, under their
+  // first tile, with all their tiles and pixels. (Column mode needs no third list: there any one
+  // tile can block the cell alone.) Each list in cell order; list L of the i-th tile of `tiles` is
+  // [L.first[i], L.first[i + 1]).
+  struct OnePixel {
+    std::vector<std::uint32_t> first;
+    std::vector<std::uint32_t> cell_and_bit;  // cell << 6 | the pixel's bit in the tile
   };
+  struct SeveralPixels {
+    std::vector<std::uint32_t> first;
+    std::vector<std::uint64_t> pixels;  // the cell's pixels in the tile, as tile bits
+    std::vector<std::uint32_t> cells;
+  };
+  struct SpreadCells {
+    std::vector<std::uint32_t> first;
+    std::vector<std::uint32_t> cells;
+    std::vector<std::uint32_t> pieces_first;  // per entry + 1: its pieces
+    std::vector<std::uint32_t> piece_tiles;
+    std::vector<std::uint64_t> piece_pixels;
+  };
+  struct CameraTable {
+    CarveRule rule = CarveRule::kAnyPixel;
+    int image_width = 0;
+    int image_height = 0;
+    // Per row of tiles, per 64-pixel strip of it: whether some tile of it decides a cell.
+    std::vector<std::uint8_t> needed_strips;
+    std::vector<std::uint32_t> tiles;  // tiles with pixels that decide some cell, ascending
+    OnePixel one;
+    SeveralPixels several;
+    SpreadCells spread;
+    std::vector<std::uint64_t> seen;  // bit per cell: the camera sees it
+    std::size_t seen_begin = 0;       // words of `seen` with a bit set: [seen_begin, seen_end)
+    std::size_t seen_end = 0;
+  };
+  static CameraTable turnAround(const CarveTable& table);
+  void blockCells(std::size_t camera, const std::uint8_t* changed);
+  std::uint8_t nextStamp();
 
+  KernelPath path_;
+  std::size_t cell_count_ = 0;
   std::vector<CameraTable> cameras_;
-  std::vector<std::uint64_t> seen_by_;  // per cell: bit k when camera k sees it
-  std::vector<std::uint32_t> blocked_;  // per cell: stamp of the last frame that blocked it
-  std::uint32_t stamp_ = 0;
+  std::vector<std::uint8_t> blocked_;  // per cell (+ a sink): stamp of the camera that blocked it
+  std::uint8_t stamp_ = 0;
+  std::vector<std::uint64_t> free_;  // bit per cell, this frame set
+  std::vector<std::uint64_t> seen_;  // bit per cell: some live camera sees it
 };
+
+// The name of the Highway target the SIMD path dispatches to on this CPU ("AVX3", "AVX2", ...).
+std::string fusionSimdTarget();
 
 }  // namespace occmap

@@ -79,7 +79,7 @@ Pipeline::Pipeline(Rig rig, std::vector<CarveTable> tables, PipelineOptions opti
     rings_.push_back(std::make_unique<SpscRing<CapturedFrame>>(4, [&] {
       CapturedFrame frame;
       frame.image = Image(width, height);
-      frame.changed.assign(static_cast<std::size_t>(width) * static_cast<std::size_t>(height), 0);
+      frame.changed.assign(changedMaskBytes(width, height), 0);
       return frame;
     }));
     counters_.push_back(std::make_unique<CameraCounters>());
@@ -144,6 +144,14 @@ bool Pipeline::camerasReportedIn() const {
     if (counters->state.load(std::memory_order_relaxed) == CameraState::kStarting) return false;
   }
   return true;
+}
+
+std::uint64_t Pipeline::framesDropped() const {
+  std::uint64_t dropped = 0;
+  for (const auto& counters : counters_) {
+    dropped += counters->frames_dropped.load(std::memory_order_relaxed);
+  }
+  return dropped;
 }
 
 std::string Pipeline::summary() const {
@@ -256,7 +264,7 @@ void Pipeline::captureLoop(std::size_t k) {
       std::memcpy(slot->image.row(v), frame.image.row(v),
                   static_cast<std::size_t>(frame.image.width));
     }
-    markChangedPixels(frame.image, background, camera.threshold, slot->changed.data());
+    kernel_.markChangedPixels(k, frame.image, background, camera.threshold, slot->changed.data());
     slot->sequence = frame.sequence;
     slot->capture_time_us = frame.capture_time_us;
     slot->monotonic_ns = arrived_ns;

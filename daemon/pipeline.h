@@ -95,6 +95,8 @@ class Pipeline {
   // to a frame's way to the network.
   const TimeHistogram& fusionTimes() const { return fusion_times_; }
   const TimeHistogram& publishLatency() const { return publish_latency_; }
+  // Frames lost on the way, over all cameras (full rings, bad frames).
+  std::uint64_t framesDropped() const;
   // Maps the publisher never took because fusion made a newer one first (it publishes the newest).
   // fused = published + skipped + publish errors.
   std::uint64_t mapsSkipped() const { return maps_skipped_.load(std::memory_order_relaxed); }
@@ -114,7 +116,7 @@ class Pipeline {
  private:
   struct CapturedFrame {
     Image image;
-    std::vector<std::uint8_t> changed;  // 1 = changed (markChangedPixels)
+    std::vector<std::uint8_t> changed;  // changed-pixel bits in 8 x 8 tiles (fusion_kernel.h)
     std::uint64_t sequence = 0;
     std::int64_t capture_time_us = 0;
     std::int64_t monotonic_ns = 0;

@@ -1,6 +1,7 @@
 #include "daemon/rig.h"
 
 #include <algorithm>
+#include <stdexcept>
 
 #include "capture/files_source.h"
 #include "capture/image_file.h"
@@ -186,6 +187,17 @@ Rig Rig::open(const Config& full_config, const RigOptions& options) {
     }
     rig.cameras_.push_back(std::move(camera));
   }
+  return rig;
+}
+
+Rig Rig::assemble(Config config, std::vector<RigCamera> cameras) {
+  if (config.cameras.size() != cameras.size()) {
+    throw std::invalid_argument("Rig::assemble: the config names " +
+                                std::to_string(config.cameras.size()) + " cameras, " +
+                                std::to_string(cameras.size()) + " were given");
+  }
+  Rig rig(std::move(config));
+  rig.cameras_ = std::move(cameras);
   return rig;
 }
 

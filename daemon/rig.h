@@ -48,6 +48,10 @@ struct RigCamera {
 class Rig {
  public:
   static Rig open(const Config& config, const RigOptions& options = {});
+  // A rig of cameras a program opened itself (a benchmark with pre-rendered frames): `config`
+  // describes them in the same order (names, fps, thresholds, map, transport). Nothing is checked
+  // beyond the count: the caller made the parts.
+  static Rig assemble(Config config, std::vector<RigCamera> cameras);
 
   const Config& config() const { return config_; }
   std::vector<RigCamera>& cameras() { return cameras_; }

@@ -61,6 +61,18 @@ int countVideoFrames(const std::string& file, int api) {
   return frames;
 }
 
+// Ctrl-C is how a person stops a viewer without --count: it ends with the summary, exit 0.
+TEST_F(LiveLcm, ViewStoppedWithCtrlCPrintsItsSummary) {
+  auto view = startView({"--timeout", "20"});
+  publish({"--count", "10", "--rate", "30", "--encoding", "zstd"});
+  view->signal(SIGINT);
+  const auto code = view->waitExit(5s);
+  ASSERT_TRUE(code) << "occmap view did not stop on SIGINT";
+  EXPECT_EQ(*code, 0) << view->out() << view->err();
+  EXPECT_NE(view->out().find("summary: received 10 maps"), std::string::npos) << view->out();
+  EXPECT_EQ(view->err().find("failed"), std::string::npos) << view->err();
+}
+
 TEST_F(LiveLcm, ViewReceivesEveryMapAndWritesThePictureAndTheVideo) {
   const std::string png = (folder_ / "last.png").string();
   const std::string avi = (folder_ / "maps.avi").string();

@@ -291,7 +291,8 @@ int run(const ViewOptions& o) {
     const auto wait = std::min(next_report - now, Clock::duration(std::chrono::milliseconds(100)));
     const int wait_ms =
         1 + static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(wait).count());
-    if (bus.handleTimeout(wait_ms) < 0) {
+    // Ctrl-C (or SIGTERM) interrupts LCM's wait: that is a stop, with the summary, not a failure.
+    if (bus.handleTimeout(wait_ms) < 0 && g_stop == 0) {
       std::fprintf(stderr, "occmap view: failed: LCM stopped receiving (%s)\n", o.lcm_url.c_str());
       return kExitFailure;
     }

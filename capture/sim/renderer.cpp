@@ -113,8 +113,8 @@ void Renderer::render(const std::vector<SceneObject>& objects, std::uint64_t fra
         const std::size_t i = static_cast<std::size_t>(v * width + u);
         if (background_depth_[i] <= 0.0f) continue;
         const Eigen::Vector3d direction = directions_[i].cast<double>();
-        const std::optional<Solid::Hit> hit =
-            object.solid.intersect(centre_, direction, 1e-9, background_depth_[i]);
+        const std::optional<Solid::Hit> hit = object.solid.intersect(
+            centre_, direction, 1e-9, static_cast<double>(background_depth_[i]));
         if (!hit) continue;
         if (static_cast<float>(hit->t) >= depth[i]) continue;
         depth[i] = static_cast<float>(hit->t);
