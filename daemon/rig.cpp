@@ -1,7 +1,13 @@
 #include "daemon/rig.h"
 
 #include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <exception>
+#include <mutex>
 #include <stdexcept>
+#include <system_error>
+#include <thread>
 
 #include "capture/files_source.h"
 #include "capture/image_file.h"
@@ -294,16 +300,69 @@ const sim::Scene* Rig::commonScene() const {
 
 std::vector<CarveTable> Rig::buildTables(double column_height_m,
                                          const std::function<void(std::size_t built)>& built) {
-  std::vector<CarveTable> tables;
-  for (const RigCamera& camera : cameras_) {
-    tables.push_back(
-        buildCarveTable(*camera.camera, config_.map, column_height_m, camera.floor_mask.view()));
-    if (tables.back().cellsInView() == 0) {
-      warnings_.push_back("camera '" + camera.name +
+  // One camera's table at a time on each core, this thread included (core/ starts no threads;
+  // these are joined before returning): a reload's tables are ready that much sooner. `built`
+  // hears on this thread only, as tables are done.
+  const std::size_t count = cameras_.size();
+  std::vector<CarveTable> tables(count);
+  std::vector<std::exception_ptr> errors(count);
+  std::atomic<std::size_t> next{0};
+  std::mutex mutex;
+  std::condition_variable finished;
+  std::size_t done = 0;  // guarded by mutex
+  auto buildSome = [&] {
+    for (std::size_t k = next++; k < count; k = next++) {
+      try {
+        tables[k] = buildCarveTable(*cameras_[k].camera, config_.map, column_height_m,
+                                    cameras_[k].floor_mask.view());
+      } catch (...) {
+        errors[k] = std::current_exception();
+      }
+      {
+        const std::lock_guard lock(mutex);
+        ++done;
+      }
+      finished.notify_one();
+    }
+  };
+  std::size_t reported = 0;
+  auto report = [&] {
+    std::size_t now = 0;
+    {
+      const std::lock_guard lock(mutex);
+      now = done;
+    }
+    for (; reported < now; ++reported) {
+      if (built) built(reported + 1);
+    }
+  };
+  {
+    std::vector<std::jthread> helpers;
+    const std::size_t threads =
+        std::min<std::size_t>(std::max(1u, std::thread::hardware_concurrency()), count);
+    try {
+      while (helpers.size() + 1 < threads) helpers.emplace_back(buildSome);
+    } catch (const std::system_error&) {
+      // No more threads to be had: those there are, and this one, build them all the same.
+    }
+    buildSome();
+    while (reported < count) {
+      {
+        std::unique_lock lock(mutex);
+        finished.wait(lock, [&] { return done > reported; });
+      }
+      report();
+    }
+  }
+  for (const std::exception_ptr& error : errors) {
+    if (error) std::rethrow_exception(error);
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    if (tables[k].cellsInView() == 0) {
+      warnings_.push_back("camera '" + cameras_[k].name +
                           "' sees no cell of the map: check its calibration (and "
                           "calibration_units) against the map's origin_m and size");
     }
-    if (built) built(tables.size());
   }
   return tables;
 }
