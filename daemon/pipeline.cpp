@@ -498,6 +498,7 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
     }
   };
 
+  RateLimit publish_warnings(std::chrono::seconds(10));
   auto publishNewestMap = [&] {
     if (!maps_.takeLatest()) return;
     MapFrame& map = maps_.readBuffer();
@@ -509,7 +510,16 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
       }
       maps_published_.fetch_add(1, std::memory_order_relaxed);
     } else {
+      const int error = errno;  // what LCM's send left
       publish_errors_.fetch_add(1, std::memory_order_relaxed);
+      std::uint64_t suppressed = 0;
+      if (publish_warnings.allow(suppressed)) {
+        logLine(LogLevel::kWarning,
+                "a map could not be sent on %s (%s; %llu more failures since): is the network "
+                "down? Maps go out again as soon as it is back",
+                transport.lcm_url.c_str(), message.empty() ? "not encoded" : std::strerror(error),
+                static_cast<unsigned long long>(suppressed));
+      }
     }
   };
 

@@ -96,6 +96,41 @@ TEST(Network, MulticastCarriesThirtyMapsASecondForTenSecondsWithNoneLost) {
   EXPECT_EQ(daemon.stop(), 0) << daemon.process.err();
 }
 
+// The network goes away under the daemon (the link down: every send fails) and comes back: the
+// failures are counted and said, the daemon keeps running, and maps reach subscribers again.
+TEST(Network, WhileTheNetworkIsGoneSendsFailCountedAndMapsResumeWhenItIsBack) {
+  if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+    GTEST_SKIP() << problem;
+  }
+  if (runCommand({"sh", "-c", "command -v ip"}).exit_code != 0) {
+    GTEST_SKIP() << "no `ip` command (Debian package iproute2) to take the link down";
+  }
+  auto ip = [](const std::string& arguments) {
+    const auto result = runCommand({"sh", "-c", "ip " + arguments});
+    EXPECT_EQ(result.exit_code, 0) << "ip " << arguments << ": " << result.err;
+  };
+  ip("route replace 224.0.0.0/4 dev lo");  // another test of this binary may have moved it
+  TemporaryFolder folder;
+  RunningDaemon daemon(folder, testing::simRoomConfig(kUrl));
+  ASSERT_TRUE(daemon.ready()) << daemon.process.err();
+  ip("link set lo down");
+  std::this_thread::sleep_for(2s);
+  ip("link set lo up");
+  ip("route replace 224.0.0.0/4 dev lo");
+  const auto view =
+      runCommand({kOccmap, "view", "--lcm-url", kUrl, "--count", "30", "--timeout", "10"});
+  EXPECT_EQ(view.exit_code, 0) << view.out << view.err;
+  EXPECT_EQ(numberAfter(view.out, "summary: received "), 30) << view.out;
+  const auto status = runCommand({kOccmap, "status", "--lcm-url", kUrl, "--json"});
+  ASSERT_EQ(status.exit_code, 0) << status.err;
+  EXPECT_GT(numberAfter(status.out, "\"publish_errors\":"), 10)
+      << "two seconds of failed sends at 30 maps/s: " << status.out;
+  EXPECT_NE(daemon.process.err().find("could not be sent"), std::string::npos)
+      << daemon.process.err();
+  EXPECT_TRUE(daemon.process.running());
+  EXPECT_EQ(daemon.stop(), 0) << daemon.process.err();
+}
+
 TEST(Network, ASecondMachineBehindAVethPairReceivesTheMaps) {
   if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
     GTEST_SKIP() << problem;
