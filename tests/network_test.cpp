@@ -7,12 +7,15 @@
 
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
+#include <occmap/status_request_t.hpp>
+#include <occmap/status_t.hpp>
 
 #include "child_process.h"
 #include "network_namespace.h"
 #include "notify_listener.h"
 #include "sim_reference.h"
 #include "sim_room_config.h"
+#include "transport/lcm_bus.h"
 
 namespace occmap {
 namespace {
@@ -129,6 +132,81 @@ TEST(Network, WhileTheNetworkIsGoneSendsFailCountedAndMapsResumeWhenItIsBack) {
       << daemon.process.err();
   EXPECT_TRUE(daemon.process.running());
   EXPECT_EQ(daemon.stop(), 0) << daemon.process.err();
+}
+
+// Anyone on the segment can ask for the status, as often as they like, and send garbage on the
+// request channel: the daemon answers at a bounded rate (20 a second), ignores what is not a
+// request, and goes on making and sending maps at their rate. (What the flood does to other
+// subscribers of the same multicast group is LCM's: every message reaches every socket.)
+TEST(Network, AFloodOfStatusRequestsAndGarbageIsAnsweredAtABoundedRateAndSparesTheMaps) {
+  if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+    GTEST_SKIP() << problem;
+  }
+  if (runCommand({"sh", "-c", "command -v ip"}).exit_code == 0) {
+    runCommand({"sh", "-c", "ip route replace 224.0.0.0/4 dev lo"});  // see the test above
+  }
+  TemporaryFolder folder;
+  RunningDaemon daemon(folder, testing::simRoomConfig(kUrl));
+  ASSERT_TRUE(daemon.ready()) << daemon.process.err();
+
+  LcmBus bus(kUrl);
+  ASSERT_TRUE(bus.good());
+  long answers = 0;
+  std::optional<occmap::status_t> first, last;  // answers to the flood, by time of making
+  bus.subscribe("OCCMAP_STATUS", [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+    occmap::status_t status{};
+    if (status.decode(data, 0, static_cast<int>(size)) == static_cast<int>(size) &&
+        status.request_id >= 1'000'000) {
+      ++answers;
+      if (!first) first = status;
+      last = status;
+    }
+  });
+  occmap::status_request_t request{};
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(request.getEncodedSize()));
+  std::vector<std::uint8_t> truncated, oversized(8'000, 0xAB), wrong_fingerprint;
+  const std::string channel = statusRequestChannel("OCCMAP_STATUS");
+  const auto start = std::chrono::steady_clock::now();
+  long sent = 0;
+  // 2000 requests a second for 3 s, each followed by two messages that are not requests (and
+  // every tenth by an oversized one).
+  while (std::chrono::steady_clock::now() - start < 3s) {
+    request.request_id = 1'000'000 + sent;
+    request.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    bus.publish(channel, bytes);
+    truncated.assign(bytes.begin(), bytes.end() - 3);
+    bus.publish(channel, truncated);
+    wrong_fingerprint = bytes;
+    wrong_fingerprint[0] ^= 0x5A;
+    bus.publish(channel, wrong_fingerprint);
+    if (sent % 10 == 0) bus.publish(channel, oversized);
+    ++sent;
+    const auto due = start + std::chrono::microseconds(500) * sent;
+    while (std::chrono::steady_clock::now() < due) bus.handleTimeout(0);
+  }
+  const auto flooded = std::chrono::duration<double>(std::chrono::steady_clock::now() - start);
+  const auto end = std::chrono::steady_clock::now() + 1s;  // answers still queued come in
+  while (std::chrono::steady_clock::now() < end) bus.handleTimeout(20);
+  ASSERT_TRUE(first && last);
+  const double span_s = static_cast<double>(last->utime - first->utime) / 1e6;
+  const double maps_per_s =
+      static_cast<double>(last->maps_published - first->maps_published) / span_s;
+  std::printf("%ld requests in %.1f s: %ld answered; meanwhile %.1f maps/s published\n", sent,
+              flooded.count(), answers, maps_per_s);
+  EXPECT_GT(sent, 4000) << "a flood is far more than the 20 a second answered";
+  EXPECT_GE(answers, 20) << "requests are answered, if not all of them";
+  EXPECT_LE(answers, static_cast<long>(20 * (flooded.count() + 1.0)) + 20)
+      << "at most 20 answers a second (and a burst of 20)";
+  EXPECT_GT(span_s, 2.0);
+  if (!kSanitized) {
+    EXPECT_GT(maps_per_s, 27.0) << "the maps keep their 30 a second";
+  }
+  EXPECT_EQ(last->publish_errors, 0);
+  EXPECT_TRUE(daemon.process.running());
+  EXPECT_EQ(daemon.stop(), 0) << daemon.process.err();
+  EXPECT_NE(daemon.process.err().find("malformed or excess status requests were ignored"),
+            std::string::npos)
+      << daemon.process.err();
 }
 
 TEST(Network, ASecondMachineBehindAVethPairReceivesTheMaps) {
