@@ -106,7 +106,9 @@ void markChangedTilesVector(ImageView live, ImageView background, int threshold,
       }
       transposeBytes(bits, out + strip * 64);
     }
-    const bool tail_needed = needed_here == nullptr || needed_here[strips] != 0;
+    // A width that is a multiple of 64 has no tail (and no entry for one in `needed`).
+    const bool tail_needed =
+        strips < strips_across && (needed_here == nullptr || needed_here[strips] != 0);
     for (int tile = strips * 8; tile < tiles_across; ++tile) {
       std::uint64_t word = 0;
       if (!tail_needed) {

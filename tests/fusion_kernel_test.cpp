@@ -136,8 +136,9 @@ TEST(FusionKernel, MarkChangedPixelsIsTheSameOnEveryPathForAnySizeStrideAndThres
 TEST(FusionKernel, EqualsTheReferenceOnRandomCamerasAndImages) {
   std::mt19937_64 rng(5);
   for (int trial = 0; trial < 60; ++trial) {
-    // Not a structured binding: the lambda below captures the map.
-    const testing::RandomRig rig = testing::randomRig(rng);
+    // Not a structured binding: the lambda below captures the map. The first trials are as wide
+    // as whole 64-pixel strips, which leaves the SIMD difference no tail to do.
+    const testing::RandomRig rig = testing::randomRig(rng, trial < 4 ? 64 * (1 + trial % 2) : 0);
     const Camera& camera = rig.camera;
     const MapGeometry& map = rig.map;
     const double height = trial % 3 == 0 ? 0.0 : (trial % 3 == 1 ? 0.12 : 0.4);

@@ -15,7 +15,8 @@ struct RandomRig {
   MapGeometry map;
 };
 
-inline RandomRig randomRig(std::mt19937_64& rng) {
+// `width`, if given, fixes the image width (e.g. a multiple of 64, a SIMD strip's width).
+inline RandomRig randomRig(std::mt19937_64& rng, int width = 0) {
   auto uniform = [&](double a, double b) {
     return std::uniform_real_distribution<double>(a, b)(rng);
   };
@@ -30,6 +31,7 @@ inline RandomRig randomRig(std::mt19937_64& rng) {
   const Pose pose = poseLookingAt(position * 1000.0, target * 1000.0);
   TsaiParameters p;
   p.width = integer(48, 160);
+  if (width > 0) p.width = width;
   p.height = integer(36, 120);
   p.ncx = p.nfx = p.width;
   p.dx = p.dy = p.dpx = p.dpy = uniform(0.02, 0.06);
