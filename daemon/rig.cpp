@@ -4,6 +4,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <exception>
+#include <filesystem>
 #include <mutex>
 #include <stdexcept>
 #include <system_error>
@@ -176,7 +177,10 @@ Rig Rig::open(const Config& full_config, const RigOptions& options) {
       // A live camera. Its background (the empty scene, taken with this camera) fixes the stream
       // size the backend must deliver, so the geometry is known before the camera is opened.
       camera.live = true;
-      if (options.read_backgrounds) {
+      // Making a background (read_backgrounds false) takes the size of the one the config names
+      // if it exists already, so that the new one fits the config; else the camera's own size.
+      if (options.read_backgrounds ||
+          (entry.background && std::filesystem::exists(*entry.background))) {
         camera.background = opener.readAnyImage("background", *entry.background);
         camera.camera = std::make_unique<Camera>(
             calibration->model, calibration->units, camera.background.width(),

@@ -158,6 +158,22 @@ class FakeGigE : public ::testing::Test {
   std::unique_ptr<ChildProcess> daemon_;
 };
 
+// `occmap background` through a real GigE Vision camera: the camera is set to the stream's size,
+// N frames are taken, their per-pixel median written. (The fake camera's pattern moves from frame
+// to frame, so only the geometry and the count are checked here; the median itself is tested on
+// files in occmap_cli_test.)
+TEST_F(FakeGigE, BackgroundTakesTheMedianOfFramesFromTheCamera) {
+  const auto out = folder_ / "gv01-background.png";
+  const auto result =
+      runCommand({OCCMAP_BINARY_DIR "/tools/occmap", "background", "--config", kConfig, "--camera",
+                  "gv01", "--frames", "15", "--out", out.string()});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  EXPECT_NE(result.out.find("the per-pixel median of 15 frames of camera gv01 (640x480)"),
+            std::string::npos)
+      << result.out;
+  EXPECT_TRUE(std::filesystem::exists(out));
+}
+
 TEST_F(FakeGigE, FourCamerasStreamAtThirtyFpsForTenSecondsWithNoFailureCounted) {
   startDaemon();
   Listener listener;

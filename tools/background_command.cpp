@@ -111,7 +111,10 @@ Command addBackgroundCommand(CLI::App& app) {
       "Make a camera's background image: the per-pixel median of N live frames.\n"
       "The median keeps what stays and drops what passes by, so people may walk through the "
       "scene while it runs, as long as no pixel is covered in half the frames or more. Take it "
-      "with the lighting the cameras will see, and make a new one when the scene changes.\n\n"
+      "with the lighting the cameras will see, and make a new one when the scene changes.\n"
+      "A live camera is set to the size of the background image its config names, if that file "
+      "exists already; otherwise it keeps its own size (set Width and Height in its settings to "
+      "choose one). Stop occmapd first: a GigE Vision camera has one controller at a time.\n\n"
       "Example:\n"
       "  occmap background --config /etc/occmap/occmapd.yaml --camera c0 --frames 100 --out "
       "bg/c0.png");
