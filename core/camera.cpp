@@ -30,7 +30,10 @@ Eigen::Vector2d Camera::streamToCalibration(const Eigen::Vector2d& s) const {
 std::optional<Eigen::Vector2d> Camera::worldToStream(const Eigen::Vector3d& world_m) const {
   const std::optional<ImagePoint> image = model_->worldToImage(world_m / metres_per_unit_);
   if (!image) return std::nullopt;
-  return calibrationToStream(image->pixel);
+  // Scaled to the stream, a pixel near the largest double can still overflow: no pixel then.
+  const Eigen::Vector2d stream = calibrationToStream(image->pixel);
+  if (!stream.allFinite()) return std::nullopt;
+  return stream;
 }
 
 std::optional<Ray> Camera::streamToRay(const Eigen::Vector2d& stream) const {

@@ -42,13 +42,15 @@ std::optional<ImagePoint> CameraModel::worldToImage(const Eigen::Vector3d& world
   // zc <= 0: behind the camera (or in its focal plane), where the pinhole has no image.
   if (!(camera.z() > 0.0)) return std::nullopt;
   const std::optional<Eigen::Vector2d> pixel = cameraToPixel(camera);
-  if (!pixel) return std::nullopt;
+  // A calibration may hold huge finite values (a distortion coefficient of 1e308) whose pixel
+  // overflows: that is no image either, never an infinite "pixel" (found by fuzzing).
+  if (!pixel || !pixel->allFinite()) return std::nullopt;
   return ImagePoint{*pixel, camera.z()};
 }
 
 std::optional<Ray> CameraModel::imageToRay(const Eigen::Vector2d& pixel) const {
   const std::optional<Eigen::Vector3d> camera = pixelToCamera(pixel);
-  if (!camera) return std::nullopt;
+  if (!camera || !camera->allFinite()) return std::nullopt;
   // Paper eq. 13, P_w = R^-1 (P_c - T), applied to the ray's origin (0) and direction.
   return Ray{pose_.centre(), pose_.rotation.transpose() * *camera};
 }

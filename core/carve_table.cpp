@@ -29,8 +29,43 @@ std::size_t CarveTable::cellsInView() const {
 void forEachPixelOnSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b, int width,
                            int height, std::vector<std::uint32_t>& out) {
   // Amanatides & Woo's grid walk. Shifted by 0.5, pixel i spans [i, i + 1).
-  const double ax = a.x() + 0.5, ay = a.y() + 0.5;
-  const double bx = b.x() + 0.5, by = b.y() + 0.5;
+  double ax = a.x() + 0.5, ay = a.y() + 0.5;
+  double bx = b.x() + 0.5, by = b.y() + 0.5;
+  // A column that passes close by a low camera images out towards infinity, and the walk takes
+  // one step per pixel boundary, off the image too: 1e9 steps and more (fuzzing found a valid
+  // calibration whose tables took over 10 minutes). Clip first (Liang & Barsky) to the stream
+  // widened by a pixel: the clipped ends then lie in pixels outside the image, so no pixel in
+  // bounds is gained or lost, and the walk takes at most about width + height steps.
+  const double low_x = -1.0, high_x = width + 1.0;
+  const double low_y = -1.0, high_y = height + 1.0;
+  auto inside = [&](double x, double y) {
+    return x >= low_x && x <= high_x && y >= low_y && y <= high_y;
+  };
+  if (!inside(ax, ay) || !inside(bx, by)) {
+    const double dx = bx - ax, dy = by - ay;
+    double t_enter = 0.0, t_leave = 1.0;
+    // Each side: p * t <= q keeps the point on the inner side.
+    const std::array<std::array<double, 2>, 4> sides = {
+        {{-dx, ax - low_x}, {dx, high_x - ax}, {-dy, ay - low_y}, {dy, high_y - ay}}};
+    for (const auto& [p, q] : sides) {
+      if (p == 0.0) {
+        if (q < 0.0) return;  // parallel to this side and beyond it
+        continue;
+      }
+      const double t = q / p;
+      if (p < 0.0) {
+        t_enter = std::max(t_enter, t);
+      } else {
+        t_leave = std::min(t_leave, t);
+      }
+    }
+    if (!(t_enter <= t_leave)) return;  // misses the widened stream (or not finite)
+    const double start_x = ax + t_enter * dx, start_y = ay + t_enter * dy;
+    bx = ax + t_leave * dx;
+    by = ay + t_leave * dy;
+    ax = start_x;
+    ay = start_y;
+  }
   long x = static_cast<long>(std::floor(ax));
   long y = static_cast<long>(std::floor(ay));
   const long end_x = static_cast<long>(std::floor(bx));

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstddef>
 #include <exception>
+#include <limits>
 #include <memory>
 #include <new>
 #include <string>
@@ -14,7 +15,7 @@
 #include <libxml/parser.h>
 #include <libxml/tree.h>
 #include <libxml/xmlerror.h>
-#include <opencv2/core.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "daemon/input_error.h"
 #include "daemon/number_text.h"
@@ -344,7 +345,14 @@ class TsaiXmlReader {
 };
 
 // ---------------------------------------------------------------------------------------------------
-// OpenCV, cv::FileStorage YAML
+// OpenCV, cv::FileStorage YAML, read with yaml-cpp
+//
+// Not with cv::FileStorage: fuzzing found OpenCV 4.6's YAML parser (Debian bookworm's) looping for
+// ever on "----Y\nY\nY" and on "!!binary" in a list, and overflowing the stack on 40 000 nested
+// "[" (fuzz/regressions/opencv_calibration/): a calibration could hang occmapd at start or on a
+// reload, or kill it. yaml-cpp reads what cv::FileStorage writes (its "%YAML:1.0" line, the
+// !!opencv-matrix tags, flow lists over several lines), bounds its nesting, and says where each
+// value is, so errors about values name their line too.
 
 struct Matrix {
   int rows = 0;
@@ -355,72 +363,38 @@ struct Matrix {
 
 class OpenCvYamlReader {
  public:
-  OpenCvYamlReader(std::string_view text, const std::string& file) : file_(file) {
-    // cv::FileStorage recognises YAML only by its "%YAML" directive; a hand-written file without it
-    // is still read, with line numbers shifted back for messages.
-    if (firstContent(text).starts_with("%YAML")) {
-      text_ = text;
-    } else {
-      text_ = "%YAML:1.0\n" + std::string(text);
-      line_shift_ = 1;
-    }
-  }
+  OpenCvYamlReader(std::string_view text, const std::string& file) : text_(text), file_(file) {}
 
   OpenCvParameters read() const {
-    cv::FileStorage storage;
+    YAML::Node root;
     try {
-      storage.open(text_,
-                   cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
-    } catch (const cv::Exception& error) {
-      throwSyntaxError(error);
-    } catch (const std::exception& error) {
-      // OpenCV 4.6's YAML parser fails this way on some slips (a key without a name: length_error).
-      throw InputError(file_, 0, "",
-                       "is not valid YAML for cv::FileStorage (it failed with \"" +
-                           std::string(error.what()) +
-                           "\"); look for a key without a name or a similar slip");
-    }
-    if (!storage.isOpened()) {
-      throw InputError(file_, 0, "", "cv::FileStorage cannot read it as YAML");
-    }
-    try {
-      return read(storage.root());
-    } catch (const InputError&) {
-      throw;
-    } catch (const cv::Exception& error) {
-      // Our own checks come first, so this is a structure OpenCV refused in a way not foreseen.
-      throw InputError(file_, 0, "", "OpenCV cannot read it: " + error.err);
+      root = YAML::Load(text_);
+      return read(root);
+    } catch (const YAML::Exception& error) {
+      throw InputError(file_, error.mark.is_null() ? 0 : error.mark.line + 1, "",
+                       "is not valid YAML: " + error.msg + "; fix the YAML syntax");
     }
   }
 
  private:
-  [[noreturn]] void throwSyntaxError(const cv::Exception& error) const {
-    // OpenCV's YAML parser puts "FILE(LINE): MESSAGE" in the exception's function name; reading
-    // from memory, FILE is empty.
-    const std::string& where = error.func;
-    const std::size_t open = where.find('(');
-    const std::size_t close = where.find("): ");
-    if (open != std::string::npos && close != std::string::npos && open < close) {
-      const std::optional<long long> line =
-          parseInteger(std::string_view(where).substr(open + 1, close - open - 1));
-      if (line) {
-        const long long shown = std::max(0LL, *line - line_shift_);
-        throw InputError(file_, static_cast<int>(std::min<long long>(shown, INT_MAX)), "",
-                         "is not valid YAML for cv::FileStorage: " + where.substr(close + 3) +
-                             "; fix the YAML syntax");
-      }
-    }
-    throw InputError(file_, 0, "",
-                     "is not valid YAML for cv::FileStorage: " + error.err + " (" + where + ")");
+  static int lineOf(const YAML::Node& node) {
+    const YAML::Mark mark = node.Mark();
+    return mark.is_null() ? 0 : mark.line + 1;
   }
 
-  [[noreturn]] void fail(const std::string& field, const std::string& message) const {
-    throw InputError(file_, 0, field, message);
+  // A quoted scalar ("640") is text in YAML even when it reads like a number.
+  static bool isText(const YAML::Node& node) {
+    return node.IsScalar() && (node.Tag() == "!" || node.Tag() == "tag:yaml.org,2002:str");
   }
 
-  OpenCvParameters read(const cv::FileNode& root) const {
-    if (!root.isMap()) {
-      fail("",
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& field,
+                         const std::string& message) const {
+    throw InputError(file_, lineOf(node), field, message);
+  }
+
+  OpenCvParameters read(const YAML::Node& root) const {
+    if (!root.IsMap()) {
+      fail(root, "",
            "top level must be a mapping with image_width, image_height, camera_matrix, "
            "distortion_coefficients, rvec and tvec, as cv::FileStorage writes them");
     }
@@ -428,16 +402,17 @@ class OpenCvYamlReader {
     p.width = imageSide(root, "image_width");
     p.height = imageSide(root, "image_height");
 
+    const YAML::Node k_node = required(root, "camera_matrix");
     Matrix k = matrix(root, "camera_matrix");
     if (k.plain_list && k.values.size() == 9) k.rows = k.cols = 3;  // row-major, as cv::Mat
     if (k.rows != 3 || k.cols != 3) {
-      fail("camera_matrix", "is " + shape(k) + "; the camera matrix is 3x3");
+      fail(k_node, "camera_matrix", "is " + shape(k) + "; the camera matrix is 3x3");
     }
     auto at = [&k](int row, int col) { return k.values[static_cast<std::size_t>(row * 3 + col)]; };
     // cv::projectPoints ignores skew, so a matrix with skew would be a camera neither OpenCV nor we
     // reproduce; other non-zero entries make it no intrinsic matrix at all.
     if (at(0, 1) != 0.0) {
-      fail("camera_matrix",
+      fail(k_node, "camera_matrix",
            "has skew K(0,1) = " + formatReal(at(0, 1)) +
                "; cv::projectPoints ignores skew, so occmap cannot model it: recalibrate with "
                "zero skew (cv::calibrateCamera's default)");
@@ -445,22 +420,24 @@ class OpenCvYamlReader {
     const std::pair<int, int> zeros[] = {{1, 0}, {2, 0}, {2, 1}};
     for (const auto& [row, col] : zeros) {
       if (at(row, col) != 0.0) {
-        fail("camera_matrix", "has K(" + std::to_string(row) + "," + std::to_string(col) +
-                                  ") = " + formatReal(at(row, col)) +
-                                  "; an intrinsic matrix is [fx 0 cx; 0 fy cy; 0 0 1]");
+        fail(k_node, "camera_matrix",
+             "has K(" + std::to_string(row) + "," + std::to_string(col) + ") = " +
+                 formatReal(at(row, col)) + "; an intrinsic matrix is [fx 0 cx; 0 fy cy; 0 0 1]");
       }
     }
     if (at(2, 2) != 1.0) {
-      fail("camera_matrix", "has K(2,2) = " + formatReal(at(2, 2)) +
-                                "; an intrinsic matrix is [fx 0 cx; 0 fy cy; 0 0 1]");
+      fail(k_node, "camera_matrix",
+           "has K(2,2) = " + formatReal(at(2, 2)) +
+               "; an intrinsic matrix is [fx 0 cx; 0 fy cy; 0 0 1]");
     }
     p.fx = at(0, 0);
     p.fy = at(1, 1);
     p.cx = at(0, 2);
     p.cy = at(1, 2);
     if (!(p.fx > 0.0) || !(p.fy > 0.0)) {
-      fail("camera_matrix", "has fx = " + formatReal(p.fx) + ", fy = " + formatReal(p.fy) +
-                                "; both focal lengths (in pixels) must be > 0");
+      fail(k_node, "camera_matrix",
+           "has fx = " + formatReal(p.fx) + ", fy = " + formatReal(p.fy) +
+               "; both focal lengths (in pixels) must be > 0");
     }
 
     p.distortion = distortion(root);
@@ -469,32 +446,50 @@ class OpenCvYamlReader {
     return p;
   }
 
-  cv::FileNode required(const cv::FileNode& root, const char* key) const {
-    const cv::FileNode node = root[key];
-    if (node.empty()) {
-      fail(key, std::string("is missing; an OpenCV calibration needs image_width, image_height, "
-                            "camera_matrix, distortion_coefficients, rvec and tvec"));
+  YAML::Node required(const YAML::Node& root, const char* key) const {
+    const YAML::Node node = root[key];
+    if (!node.IsDefined() || node.IsNull()) {
+      // Absent, it is nowhere in the file (line 0); empty, it is where its key is.
+      throw InputError(file_, node.IsDefined() ? lineOf(node) : 0, key,
+                       "is missing; an OpenCV calibration needs image_width, image_height, "
+                       "camera_matrix, distortion_coefficients, rvec and tvec");
     }
     return node;
   }
 
-  int imageSide(const cv::FileNode& root, const char* key) const {
-    const cv::FileNode node = required(root, key);
-    if (!node.isInt()) fail(key, "must be a whole number of pixels, got " + describe(node));
-    const int value = static_cast<int>(node);
-    if (value < 1 || value > kMaxImageSide) {
-      fail(key, "is " + std::to_string(value) + "; it must be from 1 to " +
-                    std::to_string(kMaxImageSide) + " pixels");
-    }
-    return value;
+  static std::string describe(const YAML::Node& node) {
+    if (node.IsSequence()) return "a list";
+    if (node.IsMap()) return "a mapping";
+    if (!node.IsScalar()) return "nothing";
+    const std::string& text = node.Scalar();
+    if (isText(node)) return "the text " + inQuotes(text);
+    return text.size() > 40 ? text.substr(0, 40) + "..." : text;
   }
 
-  static std::string describe(const cv::FileNode& node) {
-    if (node.isString()) return "the text " + inQuotes(static_cast<std::string>(node));
-    if (node.isReal()) return formatReal(static_cast<double>(node));
-    if (node.isSeq()) return "a list";
-    if (node.isMap()) return "a mapping";
-    return "nothing";
+  int imageSide(const YAML::Node& root, const char* key) const {
+    const YAML::Node node = required(root, key);
+    const std::optional<long long> value =
+        node.IsScalar() && !isText(node) ? parseInteger(node.Scalar()) : std::nullopt;
+    if (!value) fail(node, key, "must be a whole number of pixels, got " + describe(node));
+    if (*value < 1 || *value > kMaxImageSide) {
+      fail(node, key,
+           "is " + node.Scalar() + "; it must be from 1 to " + std::to_string(kMaxImageSide) +
+               " pixels");
+    }
+    return static_cast<int>(*value);
+  }
+
+  // A number as YAML and cv::FileStorage write it: also ".inf", "-.Inf", ".NaN", which
+  // std::from_chars does not read, so that the message says "not finite" rather than "no number".
+  static std::optional<double> number(const YAML::Node& node) {
+    if (!node.IsScalar() || isText(node)) return std::nullopt;
+    std::string lower = node.Scalar();
+    std::transform(lower.begin(), lower.end(), lower.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (lower == ".inf" || lower == "+.inf") return std::numeric_limits<double>::infinity();
+    if (lower == "-.inf") return -std::numeric_limits<double>::infinity();
+    if (lower == ".nan") return std::numeric_limits<double>::quiet_NaN();
+    return parseReal(node.Scalar());
   }
 
   static std::string shape(const Matrix& m) {
@@ -503,56 +498,66 @@ class OpenCvYamlReader {
 
   // A cv::Mat as cv::FileStorage writes it (!!opencv-matrix: rows, cols, dt, data), or a plain list
   // as it writes a std::vector (a column).
-  Matrix matrix(const cv::FileNode& root, const char* key) const {
-    const cv::FileNode node = required(root, key);
+  Matrix matrix(const YAML::Node& root, const char* key) const {
+    const YAML::Node node = required(root, key);
     Matrix m;
-    cv::FileNode data;
-    if (node.isMap()) {
-      const cv::FileNode rows = node["rows"];
-      const cv::FileNode cols = node["cols"];
+    YAML::Node data;
+    if (node.IsMap()) {
+      const YAML::Node rows = node["rows"];
+      const YAML::Node cols = node["cols"];
       data = node["data"];
-      if (!rows.isInt() || !cols.isInt() || !data.isSeq()) {
-        fail(key,
+      const auto side = [](const YAML::Node& n) -> std::optional<long long> {
+        return n.IsScalar() && !isText(n) ? parseInteger(n.Scalar()) : std::nullopt;
+      };
+      const std::optional<long long> row_count = side(rows), col_count = side(cols);
+      if (!row_count || !col_count || !data.IsSequence()) {
+        fail(node, key,
              "is not an OpenCV matrix: it needs rows, cols, dt and data, as cv::FileStorage "
              "writes a cv::Mat");
       }
-      m.rows = static_cast<int>(rows);
-      m.cols = static_cast<int>(cols);
-      if (m.rows < 1 || m.cols < 1) fail(key, "is " + shape(m) + "; it must not be empty");
-    } else if (node.isSeq()) {
+      // Bounded by the values given, so that the product below cannot overflow.
+      const auto limit = static_cast<long long>(data.size()) + 1;
+      m.rows = static_cast<int>(std::clamp(*row_count, -1LL, limit));
+      m.cols = static_cast<int>(std::clamp(*col_count, -1LL, limit));
+      if (m.rows < 1 || m.cols < 1) fail(node, key, "is " + shape(m) + "; it must not be empty");
+    } else if (node.IsSequence()) {
       data = node;
-      m.rows = static_cast<int>(node.size());
+      m.rows = static_cast<int>(std::min<std::size_t>(node.size(), INT_MAX));
       m.cols = 1;
       m.plain_list = true;
     } else {
-      fail(key,
+      fail(node, key,
            "must be a matrix (rows, cols, dt, data) or a list of numbers, got " + describe(node));
     }
     const long long count = static_cast<long long>(m.rows) * m.cols;
     if (count != static_cast<long long>(data.size())) {
-      fail(key, "has " + std::to_string(data.size()) + " values in data for " + shape(m) +
-                    "; a single-channel matrix of rows x cols values is expected");
+      fail(node, key,
+           "has " + std::to_string(data.size()) + " values in data for " + shape(m) +
+               "; a single-channel matrix of rows x cols values is expected");
     }
     m.values.reserve(data.size());
-    for (const cv::FileNode element : data) {
-      const std::size_t index = m.values.size();
-      if (!element.isInt() && !element.isReal()) {
-        fail(key, "value " + std::to_string(index) + " is " + describe(element) + ", not a number");
+    for (std::size_t index = 0; index < data.size(); ++index) {
+      const YAML::Node element = data[index];
+      const std::optional<double> value = number(element);
+      if (!value) {
+        fail(element, key,
+             "value " + std::to_string(index) + " is " + describe(element) + ", not a number");
       }
-      const double value = static_cast<double>(element);
-      if (!std::isfinite(value)) {
-        fail(key, "value " + std::to_string(index) + " is " + formatReal(value) +
-                      "; every value must be a finite number");
+      if (!std::isfinite(*value)) {
+        fail(element, key,
+             "value " + std::to_string(index) + " is " + element.Scalar() +
+                 "; every value must be a finite number");
       }
-      m.values.push_back(value);
+      m.values.push_back(*value);
     }
     return m;
   }
 
-  std::array<double, 5> distortion(const cv::FileNode& root) const {
+  std::array<double, 5> distortion(const YAML::Node& root) const {
     constexpr const char* kKey = "distortion_coefficients";
+    const YAML::Node node = required(root, kKey);
     const Matrix d = matrix(root, kKey);
-    if (d.rows != 1 && d.cols != 1) fail(kKey, "is " + shape(d) + "; it must be 1xN or Nx1");
+    if (d.rows != 1 && d.cols != 1) fail(node, kKey, "is " + shape(d) + "; it must be 1xN or Nx1");
     const std::size_t count = d.values.size();
     std::array<double, 5> k{};  // k1 k2 p1 p2 k3
     if (count == 4 || count == 5) {
@@ -568,26 +573,28 @@ class OpenCvYamlReader {
         std::copy(d.values.begin(), d.values.begin() + 5, k.begin());
         return k;
       }
-      fail(kKey, "has " + std::to_string(count) +
-                     " coefficients (OpenCV's rational, thin prism or tilted model); only the "
-                     "4/5-coefficient model k1 k2 p1 p2 [k3] is supported: recalibrate without "
-                     "CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL");
+      fail(node, kKey,
+           "has " + std::to_string(count) +
+               " coefficients (OpenCV's rational, thin prism or tilted model); only the "
+               "4/5-coefficient model k1 k2 p1 p2 [k3] is supported: recalibrate without "
+               "CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL");
     }
-    fail(kKey, "has " + std::to_string(count) +
-                   " coefficients; expected 5 (k1 k2 p1 p2 k3) or 4 (k1 k2 p1 p2)");
+    fail(node, kKey,
+         "has " + std::to_string(count) +
+             " coefficients; expected 5 (k1 k2 p1 p2 k3) or 4 (k1 k2 p1 p2)");
   }
 
-  Eigen::Vector3d vector3(const cv::FileNode& root, const char* key) const {
+  Eigen::Vector3d vector3(const YAML::Node& root, const char* key) const {
+    const YAML::Node node = required(root, key);
     const Matrix v = matrix(root, key);
     if (v.values.size() != 3 || (v.rows != 1 && v.cols != 1)) {
-      fail(key, "is " + shape(v) + "; it must hold 3 values (3x1 or 1x3)");
+      fail(node, key, "is " + shape(v) + "; it must hold 3 values (3x1 or 1x3)");
     }
     return {v.values[0], v.values[1], v.values[2]};
   }
 
   std::string text_;
   const std::string& file_;
-  int line_shift_ = 0;
 };
 
 std::string lowercase(std::string text) {

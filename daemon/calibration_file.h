@@ -27,8 +27,8 @@ TsaiParameters parseTsaiXml(std::string_view text, const std::string& file_name)
 // OpenCV's pinhole model in the YAML that cv::FileStorage writes (OpenCV's calibration sample):
 // image_width, image_height, camera_matrix (3x3, no skew), distortion_coefficients (k1 k2 p1 p2
 // [k3]; OpenCV's longer models only when their extra coefficients are zero), rvec, tvec (3 values
-// each). cv::FileStorage does not say where a value is, so errors about values carry line 0; syntax
-// errors carry the parser's line.
+// each). Read with yaml-cpp, not cv::FileStorage, whose parser hangs or crashes on some slips
+// (docs/fuzzing.md); errors carry the line of the value (a missing key: none).
 OpenCvParameters loadOpenCvYaml(const std::filesystem::path& file);
 OpenCvParameters parseOpenCvYaml(std::string_view text, const std::string& file_name);
 

@@ -6,7 +6,6 @@
 #include <future>
 #include <stdexcept>
 
-#include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 #include <poll.h>
 #include <sys/eventfd.h>
@@ -15,6 +14,7 @@
 
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
+#include "transport/status_message.h"
 
 namespace occmap {
 namespace {
@@ -406,13 +406,13 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
   std::uint64_t requests_ignored = 0;
   bus.subscribe(statusRequestChannel(transport.status_channel),
                 [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
-                  occmap::status_request_t request{};
-                  if (request.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size) ||
-                      pending_count == kMaxPending) {
+                  // The same checked decode the status_request fuzz target runs.
+                  const std::optional<std::int64_t> request_id = decodeStatusRequest(data, size);
+                  if (!request_id || pending_count == kMaxPending) {
                     ++requests_ignored;
                     return;
                   }
-                  pending[pending_count++] = request.request_id;
+                  pending[pending_count++] = *request_id;
                 });
   for (const auto& [channel, handler] : options_.subscriptions) {
     bus.subscribe(channel, [handler](const std::uint8_t* data, std::size_t size, std::int64_t) {

@@ -457,8 +457,10 @@ InputError openCvError(const OpenCvFile& file) {
   const fs::path path = file.write(folder.file("bad.yml"));
   InputError error = errorOf([&] { loadOpenCvYaml(path); });
   EXPECT_EQ(error.file(), path.string());
-  EXPECT_EQ(std::string(error.what()).rfind(path.string() + ": " + error.field() + ": ", 0), 0u)
-      << error.what();
+  // "FILE: FIELD: ..." when the whole file is meant (a missing key), else "FILE:LINE: FIELD: ...".
+  const std::string where =
+      path.string() + (error.line() > 0 ? ":" + std::to_string(error.line()) : "") + ": ";
+  EXPECT_EQ(std::string(error.what()).rfind(where + error.field() + ": ", 0), 0u) << error.what();
   return error;
 }
 
@@ -469,6 +471,7 @@ TEST(OpenCvYaml, MissingKeyIsNamed) {
     file.leave_out = key;
     const InputError error = openCvError(file);
     EXPECT_EQ(error.field(), key);
+    EXPECT_EQ(error.line(), 0) << "a key that is absent is in no line";
     EXPECT_TRUE(says(error, "is missing")) << error.what();
   }
 }
@@ -480,6 +483,9 @@ TEST(OpenCvYaml, NonFiniteValuesAreRefused) {
   EXPECT_EQ(matrix.field(), "camera_matrix");
   EXPECT_TRUE(says(matrix, "value 2 is")) << matrix.what();
   EXPECT_TRUE(says(matrix, "finite")) << matrix.what();
+  // cv::FileStorage writes "image_width", "image_height", "camera_matrix: !!opencv-matrix",
+  // rows, cols, dt, then "data: [ 812.5, 0., .Nan," on line 9 (after %YAML:1.0 and ---).
+  EXPECT_EQ(matrix.line(), 9) << "the line of the value: " << matrix.what();
 
   OpenCvFile far;
   far.tvec.at<double>(2) = std::numeric_limits<double>::infinity();
@@ -551,9 +557,9 @@ TEST(OpenCvYaml, WrongTypesAndSyntaxErrors) {
   EXPECT_EQ(syntax.line(), 4) << syntax.what();
   EXPECT_TRUE(says(syntax, "not valid YAML")) << syntax.what();
 
-  // Without the %YAML line (hand-written), lines are still the file's own.
+  // Without the %YAML line (hand-written), lines are the file's own.
   const InputError shifted =
-      errorOf([] { parseOpenCvYaml("image_width: 640\nimage_height: [480,\n", "c.yaml"); });
+      errorOf([] { parseOpenCvYaml("image_width: 640\n  image_height: 480\n", "c.yaml"); });
   EXPECT_EQ(shifted.line(), 2) << shifted.what();
 
   const InputError list = errorOf([] { parseOpenCvYaml("%YAML:1.0\n- 1\n- 2\n", "c.yml"); });

@@ -399,5 +399,37 @@ TEST(SegmentWalk, VisitsEveryPixelTheSegmentCrossesAndNoOther) {
   }
 }
 
+// A column that passes close by a low camera images out towards infinity (fuzzing found one):
+// the walk must give the pixels of the part in view, in order, without stepping through the
+// 1e9 pixel boundaries beyond it.
+TEST(SegmentWalk, ASegmentReachingFarOffTheImageGivesThePixelsOfItsPartInView) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> coordinate(0, 19);
+  std::uniform_real_distribution<double> angle(0, 2 * 3.141592653589793);
+  for (int trial = 0; trial < 500; ++trial) {
+    const Eigen::Vector2d centre(coordinate(rng), coordinate(rng));
+    const double theta = angle(rng);
+    const Eigen::Vector2d direction(std::cos(theta), std::sin(theta));
+    const double far = trial % 2 == 0 ? 1e8 : 1e10;
+    std::vector<std::uint32_t> near_walk, far_walk;
+    // One end in view, the other far off.
+    forEachPixelOnSegment(centre, centre + far * direction, 20, 20, far_walk);
+    forEachPixelOnSegment(centre, centre + 100 * direction, 20, 20, near_walk);
+    ASSERT_EQ(far_walk, near_walk) << "trial " << trial;
+    ASSERT_FALSE(far_walk.empty());
+    // Both ends far off, on either side of the image.
+    far_walk.clear();
+    near_walk.clear();
+    forEachPixelOnSegment(centre - far * direction, centre + far * direction, 20, 20, far_walk);
+    forEachPixelOnSegment(centre - 100 * direction, centre + 100 * direction, 20, 20, near_walk);
+    ASSERT_EQ(far_walk, near_walk) << "trial " << trial;
+    // Far off and passing the image by.
+    far_walk.clear();
+    const Eigen::Vector2d beside = centre + Eigen::Vector2d(-direction.y(), direction.x()) * 60;
+    forEachPixelOnSegment(beside - far * direction, beside + far * direction, 20, 20, far_walk);
+    ASSERT_TRUE(far_walk.empty()) << "trial " << trial;
+  }
+}
+
 }  // namespace
 }  // namespace occmap

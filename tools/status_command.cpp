@@ -13,6 +13,7 @@
 #include "daemon/exit_codes.h"
 #include "tools/commands.h"
 #include "transport/lcm_bus.h"
+#include "transport/status_message.h"
 #include "transport/status_text.h"
 
 namespace occmap::tools {
@@ -55,20 +56,16 @@ int run(const StatusOptions& o) {
   std::string periodic_host;
   const bool subscribed =
       bus.subscribe(o.channel, [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
-        occmap::status_t status{};
-        int used = -1;
-        try {  // LCM's generated decoder throws on some malformed strings
-          used = status.decode(data, 0, static_cast<int>(size));
-        } catch (const std::exception&) {
-          used = -1;
-        }
-        if (used != static_cast<int>(size)) {
+        // Checked before LCM's generated decoder sees it (status_message.h): anyone on the
+        // network segment can publish here.
+        std::optional<occmap::status_t> status = decodeStatus(data, size);
+        if (!status) {
           ++undecodable;
-        } else if (status.request_id == request_id) {
+        } else if (status->request_id == request_id) {
           answer = std::move(status);
-        } else if (status.request_id == -1) {
+        } else if (status->request_id == -1) {
           ++periodic;
-          periodic_host = status.hostname;
+          periodic_host = terminalText(status->hostname);
         } else {
           ++others;  // an answer to someone else's request
         }

@@ -4,8 +4,10 @@
 #include <cctype>
 #include <chrono>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <optional>
 
@@ -23,6 +25,13 @@
 
 namespace occmap::tools {
 namespace {
+
+// A count plus an amount from the network, held at INT64_MAX instead of overflowing.
+std::int64_t saturatingAdd(std::int64_t count, std::uint64_t amount) {
+  constexpr std::int64_t kMax = std::numeric_limits<std::int64_t>::max();
+  const auto room = static_cast<std::uint64_t>(kMax - count);  // count is never negative
+  return amount >= room ? kMax : count + static_cast<std::int64_t>(amount);
+}
 
 using Clock = std::chrono::steady_clock;
 
@@ -95,17 +104,23 @@ class Viewer {
     ++received_;
     last_map_time_ = Clock::now();
     if (last_seq_) {
-      if (map.seq > *last_seq_ + 1) {
+      // seq and utime come from the network and may be anything: the step is taken in unsigned
+      // arithmetic (INT64_MIN to INT64_MAX does not overflow) and the latency in double.
+      if (map.seq > *last_seq_ &&
+          static_cast<std::uint64_t>(map.seq) - static_cast<std::uint64_t>(*last_seq_) > 1) {
+        const std::uint64_t missing =
+            static_cast<std::uint64_t>(map.seq) - static_cast<std::uint64_t>(*last_seq_) - 1;
         ++gaps_;
-        lost_ += map.seq - *last_seq_ - 1;
-        interval_lost_ += map.seq - *last_seq_ - 1;
+        lost_ = saturatingAdd(lost_, missing);
+        interval_lost_ = saturatingAdd(interval_lost_, missing);
       } else if (map.seq <= *last_seq_) {
         std::printf("seq went back from %lld to %lld: the publisher restarted\n",
                     static_cast<long long>(*last_seq_), static_cast<long long>(map.seq));
       }
     }
     last_seq_ = map.seq;
-    const double latency_ms = static_cast<double>(recv_utime - map.utime) / 1000.0;
+    const double latency_ms =
+        (static_cast<double>(recv_utime) - static_cast<double>(map.utime)) / 1000.0;
     interval_latency_.add(latency_ms);
     total_latency_.add(latency_ms);
     const auto occupied = std::count(map.cells.begin(), map.cells.end(),

@@ -2,7 +2,6 @@
 
 #define ZSTD_STATIC_LINKING_ONLY  // ZSTD_initStaticCCtx: a compression context that cannot allocate
 #include <algorithm>
-#include <bit>
 #include <cinttypes>
 #include <climits>
 #include <cmath>
@@ -13,6 +12,8 @@
 #include <type_traits>
 
 #include <zstd.h>
+
+#include "transport/wire_reader.h"
 
 namespace occmap {
 namespace {
@@ -25,44 +26,6 @@ static_assert(static_cast<int>(CellState::kUnseen) == occmap::map_frame_t::UNSEE
 static_assert(sizeof(CellState) == 1, "cells are copied to the wire byte for byte");
 
 constexpr int kMaxCameras = INT16_MAX;  // map_frame_t.num_cameras is an int16_t
-
-// Reads LCM's big-endian fields, never past the end.
-class WireReader {
- public:
-  WireReader(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {}
-
-  std::size_t position() const { return position_; }
-  std::size_t remaining() const { return size_ - position_; }
-
-  template <typename T>
-  bool read(T& value) {
-    static_assert(std::is_arithmetic_v<T>);
-    if (remaining() < sizeof(T)) return false;
-    std::uint64_t bits = 0;
-    for (std::size_t i = 0; i < sizeof(T); ++i) bits = bits << 8 | data_[position_ + i];
-    position_ += sizeof(T);
-    if constexpr (sizeof(T) == 8) {
-      value = std::bit_cast<T>(bits);
-    } else if constexpr (sizeof(T) == 4) {
-      value = std::bit_cast<T>(static_cast<std::uint32_t>(bits));
-    } else if constexpr (sizeof(T) == 2) {
-      value = std::bit_cast<T>(static_cast<std::uint16_t>(bits));
-    } else {
-      value = std::bit_cast<T>(static_cast<std::uint8_t>(bits));
-    }
-    return true;
-  }
-  bool skip(std::size_t bytes) {
-    if (remaining() < bytes) return false;
-    position_ += bytes;
-    return true;
-  }
-
- private:
-  const std::uint8_t* data_;
-  std::size_t size_;
-  std::size_t position_ = 0;
-};
 
 std::string hex(std::int64_t value) {
   char text[24];
@@ -310,6 +273,11 @@ void MapDecoder::decodeChecked(const std::uint8_t* data, std::size_t size) {
     }
     if (data[in.position() + static_cast<std::size_t>(name_size) - 1] != 0) {
       return fail(which + ": its name does not end in NUL");
+    }
+    // Every LCM encoder stops a string at its first NUL, so one inside is no name anyone sent (and
+    // C subscribers would read another name than C++ and Python ones).
+    if (std::memchr(data + in.position(), 0, static_cast<std::size_t>(name_size) - 1) != nullptr) {
+      return fail(which + ": its name holds a NUL before its end");
     }
     in.skip(static_cast<std::size_t>(name_size));
     std::int8_t state = 0, used = 0;

@@ -108,8 +108,9 @@ struct DecodedMap {
 // outside 1..kMaxMapSide, a non-finite or non-positive cell size, an unknown encoding, raw data
 // that is not width * height bytes, a zstd frame whose declared content size is not width * height
 // (checked before decompressing) or that does not decompress to it, a cell value above 2, an
-// unknown camera state. Nothing is allocated beyond the received size and width * height cells;
-// no exception leaves decode(). Buffers are reused from message to message. One thread at a time.
+// unknown camera state, a camera name with a NUL inside. Nothing is allocated beyond the received
+// size and width * height cells; no exception leaves decode(). Buffers are reused from message to
+// message. One thread at a time.
 class MapDecoder {
  public:
   MapDecoder();

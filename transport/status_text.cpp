@@ -5,21 +5,82 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <string_view>
+#include <vector>
 
 namespace occmap {
 namespace {
 
+// printf into a string of whatever length the result has: a row with a long camera name must not
+// be cut short (losing its newline, running into the next row).
 __attribute__((format(printf, 1, 2))) std::string format(const char* pattern, ...) {
   char text[512];
   va_list arguments;
   va_start(arguments, pattern);
-  std::vsnprintf(text, sizeof text, pattern, arguments);
+  va_list again;
+  va_copy(again, arguments);
+  const int length = std::vsnprintf(text, sizeof text, pattern, arguments);
   va_end(arguments);
-  return text;
+  std::string result;
+  if (length >= static_cast<int>(sizeof text)) {
+    result.resize(static_cast<std::size_t>(length) + 1);
+    std::vsnprintf(result.data(), result.size(), pattern, again);
+    result.resize(static_cast<std::size_t>(length));
+  } else if (length > 0) {
+    result.assign(text, static_cast<std::size_t>(length));
+  }
+  va_end(again);
+  return result;
+}
+
+// The length of the UTF-8 sequence of one code point at text[at], and the code point; 0 when the
+// bytes there are not one (a stray continuation byte, an overlong form, a surrogate, past
+// U+10FFFF).
+std::size_t utf8Sequence(std::string_view text, std::size_t at, char32_t& code_point) {
+  const auto byte = [&](std::size_t k) -> unsigned {
+    return at + k < text.size() ? static_cast<unsigned char>(text[at + k]) : 0u;
+  };
+  const unsigned lead = byte(0);
+  if (lead < 0x80) {
+    code_point = lead;
+    return 1;
+  }
+  std::size_t length = 0;
+  char32_t value = 0;
+  char32_t smallest = 0;  // the least code point of this length: below it the form is overlong
+  if ((lead & 0xE0u) == 0xC0u) {
+    length = 2;
+    value = lead & 0x1Fu;
+    smallest = 0x80;
+  } else if ((lead & 0xF0u) == 0xE0u) {
+    length = 3;
+    value = lead & 0x0Fu;
+    smallest = 0x800;
+  } else if ((lead & 0xF8u) == 0xF0u) {
+    length = 4;
+    value = lead & 0x07u;
+    smallest = 0x10000;
+  } else {
+    return 0;  // a continuation byte, or no lead byte at all
+  }
+  for (std::size_t k = 1; k < length; ++k) {
+    if ((byte(k) & 0xC0u) != 0x80u) return 0;
+    value = value << 6 | (byte(k) & 0x3Fu);
+  }
+  if (value < smallest || value > 0x10FFFF || (value >= 0xD800 && value <= 0xDFFF)) return 0;
+  code_point = value;
+  return length;
+}
+
+// C0 controls, DEL and C1 controls: what a terminal may act on (escape sequences, carriage
+// returns).
+bool isControl(char32_t code_point) {
+  return code_point < 0x20 || (code_point >= 0x7F && code_point < 0xA0);
 }
 
 std::string uptime(double seconds) {
-  if (!std::isfinite(seconds) || seconds < 0) return "?";
+  // Beyond 10^12 s (31 700 years) the daemon's figure is not an uptime, and no int64 holds 1e300.
+  if (!std::isfinite(seconds) || seconds < 0 || seconds >= 1e12) return "?";
   const auto total = static_cast<std::int64_t>(seconds);
   const std::int64_t days = total / 86400;
   const std::string clock = format("%" PRId64 ":%02" PRId64 ":%02" PRId64, total % 86400 / 3600,
@@ -31,15 +92,26 @@ std::string uptime(double seconds) {
 // clock, so no clock skew between machines enters).
 std::string age(std::int64_t status_utime, std::int64_t capture_utime) {
   if (capture_utime == 0) return "never";
-  const double ms = static_cast<double>(status_utime - capture_utime) / 1000.0;
+  // In double: the difference of two int64 values from the network may not fit an int64.
+  const double ms =
+      (static_cast<double>(status_utime) - static_cast<double>(capture_utime)) / 1000.0;
   if (std::fabs(ms) < 1000.0) return format("%.0f ms ago", ms);
   return format("%.1f s ago", ms / 1000.0);
 }
 
-std::string jsonString(const std::string& text) {
+// A JSON string (RFC 8259) of a text from the network: valid UTF-8 whatever the bytes were (a byte
+// that is not UTF-8 becomes U+FFFD, as a decoder would show it), control characters escaped.
+std::string jsonString(std::string_view text) {
   std::string out = "\"";
-  for (const char c : text) {
-    switch (c) {
+  for (std::size_t at = 0; at < text.size();) {
+    char32_t code_point = 0;
+    const std::size_t length = utf8Sequence(text, at, code_point);
+    if (length == 0) {
+      out += "\\ufffd";
+      ++at;
+      continue;
+    }
+    switch (code_point) {
       case '"':
         out += "\\\"";
         break;
@@ -56,12 +128,13 @@ std::string jsonString(const std::string& text) {
         out += "\\r";
         break;
       default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          out += format("\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
+        if (isControl(code_point)) {
+          out += format("\\u%04x", static_cast<unsigned>(code_point));
         } else {
-          out += c;
+          out.append(text.substr(at, length));
         }
     }
+    at += length;
   }
   return out + "\"";
 }
@@ -73,6 +146,23 @@ std::string jsonNumber(double value) {
 std::string jsonNumber(std::int64_t value) { return format("%" PRId64, value); }
 
 }  // namespace
+
+std::string terminalText(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t at = 0; at < text.size();) {
+    char32_t code_point = 0;
+    const std::size_t length = utf8Sequence(text, at, code_point);
+    if (length == 0 || isControl(code_point)) {
+      out += '?';
+      at += length == 0 ? 1 : length;
+    } else {
+      out.append(text.substr(at, length));
+      at += length;
+    }
+  }
+  return out;
+}
 
 std::string daemonStateName(int state) {
   switch (state) {
@@ -103,8 +193,9 @@ std::string cameraStateName(int state) {
 }
 
 std::string formatStatusTable(const occmap::status_t& s) {
-  std::string text = "occmapd on " + (s.hostname.empty() ? std::string("?") : s.hostname);
-  if (!s.config_file.empty()) text += " (config " + s.config_file + ")";
+  std::string text =
+      "occmapd on " + (s.hostname.empty() ? std::string("?") : terminalText(s.hostname));
+  if (!s.config_file.empty()) text += " (config " + terminalText(s.config_file) + ")";
   text += "\n";
   text +=
       format("  state %s, up %s\n", daemonStateName(s.state).c_str(), uptime(s.uptime_s).c_str());
@@ -112,26 +203,32 @@ std::string formatStatusTable(const occmap::status_t& s) {
                  s.maps_published, s.maps_per_s, s.publish_errors);
   text += format("  fusion per frame set: p50 %.2f ms, p99 %.2f ms\n", s.fusion_p50_ms,
                  s.fusion_p99_ms);
+  std::vector<std::string> names;
+  for (const auto& camera : s.cameras) names.push_back(terminalText(camera.name));
+  // Camera names are at most 64 characters (config.h); a longer one runs past its column.
   std::size_t name_width = 6;
-  for (const auto& camera : s.cameras) name_width = std::max(name_width, camera.name.size());
-  const int w = static_cast<int>(name_width);
+  for (const std::string& name : names) name_width = std::max(name_width, name.size());
+  const int w = static_cast<int>(std::min<std::size_t>(name_width, 64));
   text += format("\n%-*s  %-9s  %10s  %8s  %6s  %s\n", w, "camera", "state", "frames in", "dropped",
                  "fps", "last capture");
-  for (const auto& c : s.cameras) {
-    text += format("%-*s  %-9s  %10" PRId64 "  %8" PRId64 "  %6.1f  %s\n", w, c.name.c_str(),
+  for (std::size_t k = 0; k < s.cameras.size(); ++k) {
+    const auto& c = s.cameras[k];
+    text += format("%-*s  %-9s  %10" PRId64 "  %8" PRId64 "  %6.1f  %s\n", w, names[k].c_str(),
                    cameraStateName(c.state).c_str(), c.frames_in, c.frames_dropped, c.fps,
                    age(s.utime, c.last_capture_utime).c_str());
   }
   if (s.cameras.empty()) text += "(no cameras)\n";
-  for (const auto& c : s.cameras) {
+  for (std::size_t k = 0; k < s.cameras.size(); ++k) {
+    const auto& c = s.cameras[k];
     if (c.frames_incomplete || c.missing_packets || c.resent_packets || c.underruns ||
         c.reconnects) {
       text += format("%s: %" PRId64 " incomplete frames, %" PRId64 " packets missing, %" PRId64
                      " resent, %" PRId64 " underruns, %d reconnects\n",
-                     c.name.c_str(), c.frames_incomplete, c.missing_packets, c.resent_packets,
+                     names[k].c_str(), c.frames_incomplete, c.missing_packets, c.resent_packets,
                      c.underruns, c.reconnects);
     }
-    if (!c.last_error.empty()) text += c.name + ": last error: " + c.last_error + "\n";
+    if (!c.last_error.empty())
+      text += names[k] + ": last error: " + terminalText(c.last_error) + "\n";
   }
   return text;
 }

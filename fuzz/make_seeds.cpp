@@ -1,0 +1,130 @@
+// Writes the seed corpora of the LCM message targets from occmap's own encoders, so that the seeds
+// are exactly what occmapd and `occmap status` send. Run after a message type changes (a new type,
+// since types are never changed in place) and commit the files:
+//   build-fuzz/fuzz/fuzz_make_seeds fuzz/corpus
+// The config and calibration seeds are text files written by hand (docs/fuzzing.md, "Seeds").
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <occmap/status_request_t.hpp>
+#include <occmap/status_t.hpp>
+
+#include "transport/map_codec.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+void write(const fs::path& file, std::span<const std::uint8_t> bytes) {
+  fs::create_directories(file.parent_path());
+  std::ofstream out(file, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
+  if (!out) throw std::runtime_error("cannot write " + file.string());
+  std::printf("%s (%zu bytes)\n", file.c_str(), bytes.size());
+}
+
+template <typename Message>
+void writeMessage(const fs::path& file, const Message& message) {
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(message.getEncodedSize()));
+  message.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  write(file, bytes);
+}
+
+void writeMap(const fs::path& file, const occmap::MapGeometry& geometry,
+              const std::vector<std::string>& names, occmap::MapEncoding encoding) {
+  using occmap::CameraState;
+  using occmap::CellState;
+  occmap::MapEncoder encoder(geometry, names, encoding);
+  occmap::MapFrame frame(geometry, names.size());
+  frame.seq = 1234;
+  frame.utime = 1'700'000'000'123'456;
+  // A room-like map: unseen border, free floor, a few occupied blobs.
+  for (int row = 0; row < geometry.height; ++row) {
+    for (int column = 0; column < geometry.width; ++column) {
+      const bool border =
+          row == 0 || column == 0 || row == geometry.height - 1 || column == geometry.width - 1;
+      const bool blob = (row / 3 + column / 3) % 4 == 1;
+      frame.map.cells[static_cast<std::size_t>(geometry.index(row, column))] =
+          border ? CellState::kUnseen
+          : blob ? CellState::kOccupied
+                 : CellState::kFree;
+    }
+  }
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    const bool down = k == 1;
+    frame.cameras[k] = {down ? CameraState::kDown : CameraState::kStreaming, !down,
+                        down ? -1 : static_cast<std::int64_t>(100 + k),
+                        down ? 0 : frame.utime - static_cast<std::int64_t>(k) * 1000};
+  }
+  const std::span<const std::uint8_t> bytes = encoder.encode(frame);
+  if (bytes.empty()) throw std::runtime_error(encoder.lastError());
+  write(file, bytes);
+}
+
+occmap::camera_status_t camera(const std::string& name, const std::string& source, int state) {
+  occmap::camera_status_t c{};
+  c.name = name;
+  c.source = source;
+  c.state = static_cast<std::int8_t>(state);
+  c.frames_in = 36000;
+  c.frames_dropped = 2;
+  c.fps = 30.0;
+  c.last_capture_utime = 1'700'000'000'000'000 - 9000;
+  return c;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: fuzz_make_seeds CORPUS_FOLDER (fuzz/corpus)\n");
+    return 2;
+  }
+  const fs::path corpus = argv[1];
+
+  occmap::status_request_t request{};
+  request.utime = 1'700'000'000'000'000;
+  request.request_id = 0x1234'5678'9abc'def0;
+  writeMessage(corpus / "status_request" / "request.bin", request);
+
+  occmap::status_t status{};
+  status.utime = 1'700'000'000'000'000;
+  status.request_id = -1;
+  status.hostname = "camera-pc";
+  status.config_file = "/etc/occmap/occmapd.yaml";
+  status.state = occmap::status_t::STATE_RUNNING;
+  status.uptime_s = 93784.5;
+  status.maps_published = 2'800'000;
+  status.publish_errors = 3;
+  status.maps_per_s = 29.9;
+  status.fusion_p50_ms = 6.5;
+  status.fusion_p99_ms = 9.6;
+  status.cameras = {camera("c0", "sim://room/c0", 1), camera("c1", "aravis://GV02", 2),
+                    camera("c2", "v4l2:///dev/video0", 0)};
+  status.cameras[1].frames_incomplete = 4;
+  status.cameras[1].missing_packets = 120;
+  status.cameras[1].resent_packets = 80;
+  status.cameras[1].underruns = 1;
+  status.cameras[1].reconnects = 2;
+  status.cameras[1].last_error = "no frame for 1 s";
+  status.num_cameras = static_cast<std::int16_t>(status.cameras.size());
+  writeMessage(corpus / "status" / "periodic-3-cameras.bin", status);
+  status.request_id = 77;
+  status.state = occmap::status_t::STATE_STARTING;
+  status.cameras.clear();
+  status.num_cameras = 0;
+  writeMessage(corpus / "status" / "answer-no-cameras.bin", status);
+
+  writeMap(corpus / "map_frame" / "raw-8x6-2-cameras.bin", {-1.0, -1.5, 0.25, 8, 6}, {"c0", "c1"},
+           occmap::MapEncoding::kRaw);
+  writeMap(corpus / "map_frame" / "zstd-24x16-3-cameras.bin", {-0.62, -1.87, 0.02, 24, 16},
+           {"c0", "c1", "c2"}, occmap::MapEncoding::kZstd);
+  writeMap(corpus / "map_frame" / "zstd-5x5-no-cameras.bin", {0.0, 0.0, 1.0, 5, 5}, {},
+           occmap::MapEncoding::kZstd);
+  return 0;
+}

@@ -1,0 +1,94 @@
+#include "transport/status_message.h"
+
+#include <climits>
+#include <exception>
+
+#include <occmap/status_request_t.hpp>
+
+#include "transport/wire_reader.h"
+
+namespace occmap {
+namespace {
+
+template <typename T>
+bool skipField(WireReader& in) {
+  T ignored{};
+  return in.read(ignored);
+}
+
+// Reads fields of the given types, in order; false as soon as one does not fit.
+template <typename... T>
+bool readAll(WireReader& in) {
+  return (skipField<T>(in) && ...);
+}
+
+bool readStrings(WireReader& in, int count) {
+  for (int k = 0; k < count; ++k) {
+    const char* text = nullptr;
+    std::size_t length = 0;
+    if (!in.readString(text, length)) return false;
+  }
+  return true;
+}
+
+// Why the bytes are not one status_t, or "" when every count agrees with the size (in the order of
+// lcmtypes/status_t.lcm and camera_status_t.lcm).
+const char* statusLayoutError(const std::uint8_t* data, std::size_t size) {
+  WireReader in(data, size);
+  std::int64_t fingerprint = 0;
+  if (!in.read(fingerprint)) return "too short for an LCM message";
+  if (fingerprint != occmap::status_t::getHash()) return "not an occmap.status_t (fingerprint)";
+  if (!readAll<std::int64_t, std::int64_t>(in)) return "truncated in utime or request_id";
+  if (!readStrings(in, 2)) return "hostname or config_file is not a string that fits";
+  if (!readAll<std::int8_t, double, std::int64_t, std::int64_t, double, double, double>(in)) {
+    return "truncated in the daemon's figures";
+  }
+  std::int16_t cameras = 0;
+  if (!in.read(cameras)) return "truncated before num_cameras";
+  if (cameras < 0) return "num_cameras is negative";
+  for (int k = 0; k < cameras; ++k) {
+    if (!readStrings(in, 2)) return "a camera's name or source is not a string that fits";
+    if (!readAll<std::int8_t, std::int64_t, std::int64_t, double, std::int64_t, std::int64_t,
+                 std::int64_t, std::int64_t, std::int64_t, std::int32_t>(in)) {
+      return "truncated in a camera's figures";
+    }
+    if (!readStrings(in, 1)) return "a camera's last_error is not a string that fits";
+  }
+  if (in.remaining() != 0) return "bytes left over: the counts do not add up to the size";
+  return "";
+}
+
+}  // namespace
+
+std::optional<std::int64_t> decodeStatusRequest(const std::uint8_t* data, std::size_t size) {
+  // Fixed-size fields only: LCM's decoder checks each against the length, so it is safe as it is.
+  if (data == nullptr || size > static_cast<std::size_t>(INT_MAX)) return std::nullopt;
+  occmap::status_request_t request{};
+  if (request.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
+    return std::nullopt;
+  }
+  return request.request_id;
+}
+
+std::optional<occmap::status_t> decodeStatus(const std::uint8_t* data, std::size_t size,
+                                             std::string* error) {
+  auto refuse = [error](const char* why) -> std::optional<occmap::status_t> {
+    if (error != nullptr) *error = why;
+    return std::nullopt;
+  };
+  if (data == nullptr) return refuse("no data");
+  if (size > static_cast<std::size_t>(INT_MAX)) return refuse("larger than LCM allows");
+  if (const char* why = statusLayoutError(data, size); *why != '\0') return refuse(why);
+  occmap::status_t status{};
+  try {
+    // Every count agrees with `size`, so this allocates no more than the message holds.
+    if (status.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
+      return refuse("LCM's decoder did not take the whole message");
+    }
+  } catch (const std::exception&) {
+    return refuse("out of memory while decoding");
+  }
+  return status;
+}
+
+}  // namespace occmap
