@@ -68,7 +68,9 @@ std::unique_ptr<FilesSource> FilesSource::open(const std::string& pattern, std::
 
 FrameSource::Status FilesSource::read(Frame& frame) {
   if (next_ >= files_.size()) return Status::kEnd;
-  const std::filesystem::path& file = files_[next_];
+  // Past this file whatever becomes of it: a bad one is skipped (the caller drops and counts it),
+  // not read again and again while the good ones after it wait.
+  const std::filesystem::path& file = files_[next_++];
   std::string error;
   const std::optional<ImageView> image = reader_.read(file, error);
   if (!image) return fail(error);
@@ -79,7 +81,6 @@ FrameSource::Status FilesSource::read(Frame& frame) {
   }
   frame.image = *image;  // the reader's buffer: valid until the next read(), as Frame says
   frame.sequence = delivered_++;
-  ++next_;
   frame.capture_time_us = hostTimeMicroseconds();
   return Status::kFrame;
 }

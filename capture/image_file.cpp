@@ -54,6 +54,50 @@ bool readFile(const std::filesystem::path& file, std::vector<char>& bytes) {
   return true;
 }
 
+// libjpeg decodes a JPEG that was cut short without an error: it warns, fills the missing rows
+// with grey, and OpenCV hands that out as the picture. A background or a frame with a grey band
+// carves a wrong map, so a JPEG must reach its end-of-image marker (FF D9). It is found by walking
+// the segments (each gives its length) and, after a start of scan, the entropy-coded data, in
+// which FF is always followed by 00 (a stuffed byte), FF (fill) or a restart marker unless a
+// marker starts. Bytes after the end of the image (some cameras append their own) are allowed.
+bool jpegReachesItsEnd(const std::vector<char>& file) {
+  const auto* b = reinterpret_cast<const unsigned char*>(file.data());
+  const std::size_t n = file.size();
+  std::size_t at = 2;  // after the start-of-image marker FF D8
+  for (;;) {
+    if (at >= n || b[at] != 0xFF) return false;  // a marker must start here
+    while (at < n && b[at] == 0xFF) ++at;        // fill bytes before the marker's code
+    if (at >= n) return false;
+    const unsigned marker = b[at++];
+    if (marker == 0xD9) return true;
+    if (marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) continue;  // no length follows
+    if (at + 2 > n) return false;
+    const std::size_t length = (static_cast<std::size_t>(b[at]) << 8) | b[at + 1];
+    if (length < 2 || length > n - at) return false;
+    at += length;
+    if (marker != 0xDA) continue;
+    for (;;) {  // a start of scan: its entropy-coded data runs up to the next marker
+      const void* ff = at < n ? std::memchr(b + at, 0xFF, n - at) : nullptr;
+      if (ff == nullptr) return false;
+      at = static_cast<std::size_t>(static_cast<const unsigned char*>(ff) - b);
+      if (at + 1 >= n) return false;
+      const unsigned next = b[at + 1];
+      if (next == 0x00 || (next >= 0xD0 && next <= 0xD7)) {
+        at += 2;
+      } else if (next == 0xFF) {
+        at += 1;
+      } else {
+        break;
+      }
+    }
+  }
+}
+
+bool isJpeg(const std::vector<char>& file) {
+  return file.size() >= 2 && static_cast<unsigned char>(file[0]) == 0xFF &&
+         static_cast<unsigned char>(file[1]) == 0xD8;
+}
+
 }  // namespace
 
 std::optional<ImageView> GreyImageReader::read(const std::filesystem::path& file,
@@ -64,12 +108,33 @@ std::optional<ImageView> GreyImageReader::read(const std::filesystem::path& file
     error = "cannot read image " + file.string() + ": " + std::strerror(errno);
     return std::nullopt;
   }
+  if (isJpeg(b.bytes) && !jpegReachesItsEnd(b.bytes)) {
+    error = "cannot decode image " + file.string() +
+            ": the JPEG data ends before its end-of-image marker (truncated or corrupt)";
+    return std::nullopt;
+  }
+  // cv::imdecode leaves its `dst` as it was, and says nothing, when no decoder knows the bytes or
+  // the header cannot be read: the last image would come out again as this one. A decoder that
+  // succeeds writes every pixel, so a stamp put into the held picture's first bytes and found
+  // there unchanged afterwards means nothing was decoded. (A picture that really starts with
+  // these 16 bytes would be taken for a failure, once in 2^128.)
+  static constexpr unsigned char kStamp[16] = {0x6f, 0x63, 0x63, 0x6d, 0x61, 0x70, 0x00, 0xff,
+                                               0x5a, 0xa5, 0x13, 0x37, 0xc0, 0xde, 0x01, 0xfe};
+  const std::uint8_t* stamped = nullptr;
+  if (!b.decoded.empty() && b.decoded.isContinuous() &&
+      b.decoded.total() * b.decoded.elemSize() >= sizeof kStamp) {
+    std::memcpy(b.decoded.data, kStamp, sizeof kStamp);
+    stamped = b.decoded.data;
+  } else {
+    b.decoded.release();
+  }
   bool decoded = false;
   try {
     // Decodes into b.decoded's pixels when size and type are those of the last image.
     const cv::Mat bytes(1, static_cast<int>(b.bytes.size()), CV_8UC1, b.bytes.data());
     cv::imdecode(bytes, cv::IMREAD_UNCHANGED, &b.decoded);
-    decoded = !b.decoded.empty();
+    decoded = !b.decoded.empty() &&
+              !(b.decoded.data == stamped && std::memcmp(stamped, kStamp, sizeof kStamp) == 0);
   } catch (const cv::Exception&) {
     decoded = false;
   }

@@ -259,6 +259,19 @@ bool sameConnection(const CameraConfig& a, const RigCamera& camera_a, const Came
          camera_a.background.height() == camera_b.background.height();
 }
 
+// Whether some pixel of a 9 x 9 grid over the image looks down at the floor in front of the camera.
+bool seesTheFloor(const Camera& camera) {
+  constexpr int kSteps = 8;
+  for (int i = 0; i <= kSteps; ++i) {
+    for (int j = 0; j <= kSteps; ++j) {
+      const Eigen::Vector2d pixel(-0.5 + camera.streamWidth() * i / double{kSteps},
+                                  -0.5 + camera.streamHeight() * j / double{kSteps});
+      if (camera.streamToPlane(pixel, 0.0)) return true;
+    }
+  }
+  return false;
+}
+
 }  // namespace
 
 void Rig::openLiveCameras(Rig* previous) {
@@ -363,9 +376,18 @@ std::vector<CarveTable> Rig::buildTables(double column_height_m,
   }
   for (std::size_t k = 0; k < count; ++k) {
     if (tables[k].cellsInView() == 0) {
+      // Not an error: the camera runs on with an empty table and the others make the map. But
+      // the user is told which of the two usual slips it is, so that they know what to fix.
+      const std::string why = seesTheFloor(*cameras_[k].camera)
+                                  ? "check its calibration (and calibration_units) against the "
+                                    "map's origin_m and size"
+                                  : "no ray of its image meets the floor in front of it (the "
+                                    "floor is behind the camera or above its view): check the "
+                                    "rotation in its calibration";
       warnings_.push_back("camera '" + cameras_[k].name +
-                          "' sees no cell of the map: check its calibration (and "
-                          "calibration_units) against the map's origin_m and size");
+                          "' sees no cell of the map, so it decides none (an empty carve "
+                          "table): " +
+                          why);
     }
   }
   return tables;

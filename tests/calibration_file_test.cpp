@@ -12,6 +12,7 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
@@ -152,6 +153,9 @@ TEST(TsaiXml, ZeroOrNegativeScalesAreRefused) {
                  "cam.xml");
   });
   EXPECT_EQ(focal.field(), "Intrinsic.focal");
+  EXPECT_EQ(focal.line(), 5) << "the line of <Intrinsic>: " << focal.what();
+  EXPECT_EQ(std::string(focal.what()).rfind("cam.xml:5: Intrinsic.focal: is 0; ", 0), 0u)
+      << focal.what();
   EXPECT_TRUE(says(focal, "must be > 0")) << focal.what();
 
   const InputError sx = errorOf([&] {
@@ -519,6 +523,21 @@ TEST(OpenCvYaml, OnlyTheFiveCoefficientModelIsSupported) {
   const OpenCvParameters p4 = loadOpenCvYaml(four.write(folder.file("four.yml")));
   EXPECT_EQ(p4.distortion[3], -5e-4);
   EXPECT_EQ(p4.distortion[4], 0.0) << "4 coefficients: k3 = 0";
+}
+
+// A zero (or negative) focal length would put every pixel's ray along the axis: refused, naming
+// the camera matrix's line (cv::FileStorage writes it on line 5, after image_width and _height).
+TEST(OpenCvYaml, ZeroFocalLengthIsRefused) {
+  for (const auto& [fx, fy] :
+       {std::pair{0.0, 808.75}, std::pair{812.5, 0.0}, std::pair{-812.5, 808.75}}) {
+    OpenCvFile file;
+    file.camera_matrix.at<double>(0, 0) = fx;
+    file.camera_matrix.at<double>(1, 1) = fy;
+    const InputError error = openCvError(file);
+    EXPECT_EQ(error.field(), "camera_matrix") << error.what();
+    EXPECT_EQ(error.line(), 5) << error.what();
+    EXPECT_TRUE(says(error, "both focal lengths (in pixels) must be > 0")) << error.what();
+  }
 }
 
 TEST(OpenCvYaml, SkewAndNonIntrinsicMatricesAreRefused) {
