@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstdlib>
@@ -29,6 +30,15 @@
 #include <time.h>
 
 #include "capture/live_source.h"
+
+// ThreadSanitizer builds (GCC, clang): see "ThreadSanitizer and Aravis's buffer queues" below.
+#if defined(__SANITIZE_THREAD__)
+#define OCCMAP_TSAN 1
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define OCCMAP_TSAN 1
+#endif
+#endif
 
 namespace occmap {
 
@@ -170,6 +180,18 @@ std::shared_ptr<const FakeCameraFill> currentFakeFill() {
 // ---------------------------------------------------------------------------------------------
 // Releasing a camera that vanished
 
+// Drops our reference to an Aravis stream or camera, which stops its thread (the stream's receive
+// thread, the GigE device's heartbeat thread) and frees it. A function of its own, named in
+// tests/tsan.supp: to stop such a thread, GLib's GCancellable wakes it through an eventfd that the
+// thread made and then closes, ordered by GLib's futex mutex and poll(), which TSan cannot see.
+// TSan's stacks show an instrumented function only where it calls another instrumented one, so
+// stopAravisThreads calls dropReference rather than g_object_unref, to be in the stack of what
+// GLib does meanwhile.
+[[gnu::noinline]] void dropReference(gpointer object) { g_object_unref(object); }
+[[gnu::noinline]] void stopAravisThreads(gpointer stream_or_camera) {
+  dropReference(stream_or_camera);
+}
+
 // Aravis's release of a camera talks to it (stops the stream channel, gives up control) and, when
 // the camera is gone, waits out its control-protocol timeouts: 4 to 7 s measured against a killed
 // arv-fake-gv-camera. The thread that noticed the loss must not wait that long (its daemon has to
@@ -206,8 +228,8 @@ class Reaper {
         next = queue_.front();
         queue_.pop_front();
       }
-      if (next.first != nullptr) g_object_unref(next.first);
-      if (next.second != nullptr) g_object_unref(next.second);
+      if (next.first != nullptr) stopAravisThreads(next.first);
+      if (next.second != nullptr) stopAravisThreads(next.second);
     }
   }
 
@@ -229,9 +251,34 @@ struct StreamContext {
   std::atomic<bool> control_lost{false};
   std::shared_ptr<const FakeCameraFill> fill;  // tests: the fake camera's pattern
   std::size_t payload = 0;                     // bytes of each buffer of the pool
+#ifdef OCCMAP_TSAN
+  std::atomic<std::uint64_t> buffers_done{0};  // BUFFER_DONE events so far (awaitBufferDone)
+#endif
 };
 
 using ContextRef = std::shared_ptr<StreamContext>;
+
+// ThreadSanitizer and Aravis's buffer queues. Buffers go to Aravis's stream thread through
+// arv_stream_push_buffer and come back through arv_stream_timeout_pop_buffer: GAsyncQueues, which
+// GLib synchronises with futexes of its own in a library built without TSan, so TSan sees no order
+// between our use of a buffer and the stream thread's (google/sanitizers#490): it reports Aravis's
+// copy of the GigE packets, the fake camera's fill hook and our reads of the frame as races, and
+// even suppressed, so many (one per frame) that the capture threads stop keeping up. In TSan builds
+// occmap therefore tells TSan what the queues guarantee, and nothing more: what this thread did
+// before a push happens before the stream thread starts on a buffer (its START_BUFFER event, keyed
+// on the stream's context, as that event names no buffer); a popped buffer is read only after the
+// stream thread's BUFFER_DONE event for it, which Aravis sends just after queueing it (see
+// awaitBufferDone). A real misuse, such as reading a frame after its buffer went back, still races.
+// Outside TSan builds none of this exists.
+#ifdef OCCMAP_TSAN
+extern "C" void __tsan_acquire(void* address);
+extern "C" void __tsan_release(void* address);
+void tsanHandOver(void* key) { __tsan_release(key); }
+void tsanTakeOver(void* key) { __tsan_acquire(key); }
+#else
+void tsanHandOver(void* /*key*/) {}
+void tsanTakeOver(void* /*key*/) {}
+#endif
 
 void releaseContextRef(gpointer data, GClosure* /*closure*/) {
   delete static_cast<ContextRef*>(data);
@@ -239,8 +286,18 @@ void releaseContextRef(gpointer data, GClosure* /*closure*/) {
 void releaseContextRefNotify(gpointer data) { delete static_cast<ContextRef*>(data); }
 
 void onStreamEvent(void* data, ArvStreamCallbackType type, ArvBuffer* /*buffer*/) {
-  if (type != ARV_STREAM_CALLBACK_TYPE_INIT) return;
   StreamContext& context = **static_cast<ContextRef*>(data);
+  if (type == ARV_STREAM_CALLBACK_TYPE_START_BUFFER) {
+    tsanTakeOver(&context);  // the stream thread took a buffer we gave (see tsanHandOver)
+    return;
+  }
+#ifdef OCCMAP_TSAN
+  if (type == ARV_STREAM_CALLBACK_TYPE_BUFFER_DONE) {
+    context.buffers_done.fetch_add(1, std::memory_order_release);  // see awaitBufferDone
+    return;
+  }
+#endif
+  if (type != ARV_STREAM_CALLBACK_TYPE_INIT) return;
   if (context.realtime_priority > 0) {
     // On Aravis's receive thread itself: a missed packet deadline there is a lost frame.
     const bool granted = arv_make_thread_realtime(context.realtime_priority) != 0;
@@ -333,7 +390,7 @@ class AravisSource final : public FrameSource {
 
   Status read(Frame& frame) override {
     if (held_ != nullptr) {
-      arv_stream_push_buffer(stream_, held_);  // the previous frame's buffer goes back to Aravis
+      giveBack(held_);  // the previous frame's buffer goes back to Aravis
       held_ = nullptr;
     }
     if (stream_ == nullptr) return lost(pending_loss_.empty() ? "not connected" : pending_loss_);
@@ -352,6 +409,7 @@ class AravisSource final : public FrameSource {
           "control of the camera was lost (unplugged, powered off, or the network is down)");
     }
     ArvBuffer* buffer = arv_stream_timeout_pop_buffer(stream_, kWaitUs);
+    if (buffer != nullptr) awaitBufferDone();
     updateCounters();
     const std::int64_t now = monotonicNanoseconds();
     if (buffer == nullptr) {
@@ -369,7 +427,7 @@ class AravisSource final : public FrameSource {
     const ArvBufferStatus status = arv_buffer_get_status(buffer);
     if (status != ARV_BUFFER_STATUS_SUCCESS) {
       const auto id = static_cast<unsigned long long>(arv_buffer_get_frame_id(buffer));
-      arv_stream_push_buffer(stream_, buffer);
+      giveBack(buffer);
       return fail("frame " + std::to_string(id) + " arrived " + bufferStatusText(status));
     }
     std::size_t received = 0;  // not what the fake camera's test pattern hook leaves: unused
@@ -390,7 +448,7 @@ class AravisSource final : public FrameSource {
         static_cast<std::size_t>(width) * static_cast<std::size_t>(bytesPerPixel(pixels_));
     if (data == nullptr || width != width_ || height != height_ || format != pixel_format_ ||
         needed > payload_) {
-      arv_stream_push_buffer(stream_, buffer);
+      giveBack(buffer);
       return fail("a frame of " + std::to_string(width) + "x" + std::to_string(height) +
                   " in pixel format 0x" + hex(format) + ", not the stream's " +
                   std::to_string(width_) + "x" + std::to_string(height_) + " in 0x" +
@@ -410,7 +468,7 @@ class AravisSource final : public FrameSource {
         system_ns != 0 ? static_cast<std::int64_t>(system_ns / 1000) : hostTimeMicroseconds();
     frame.device_time_ns = arv_buffer_get_timestamp(buffer);
     frame.device_frame_id = arv_buffer_get_frame_id(buffer);
-    if (held_ == nullptr) arv_stream_push_buffer(stream_, buffer);
+    if (held_ == nullptr) giveBack(buffer);
     return Status::kFrame;
   }
 
@@ -439,6 +497,31 @@ class AravisSource final : public FrameSource {
   }
 
  private:
+  // A buffer back to the stream's pool, to be filled by Aravis's stream thread.
+  void giveBack(ArvBuffer* buffer) {
+    tsanHandOver(context_.get());
+    arv_stream_push_buffer(stream_, buffer);
+  }
+
+  // TSan builds: the stream thread queues a filled buffer and then sends its BUFFER_DONE (the GigE,
+  // fake and USB3 streams alike), one buffer at a time, so the n-th buffer popped since connecting
+  // is the n-th BUFFER_DONE. Waiting for that event, an atomic TSan sees, orders everything the
+  // stream thread did to the buffer before our reads of it. It takes microseconds; should Aravis
+  // ever queue a buffer without the event, the wait gives up after 20 ms and catches up.
+  void awaitBufferDone() {
+#ifdef OCCMAP_TSAN
+    ++buffers_popped_;
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(20);
+    while (context_->buffers_done.load(std::memory_order_acquire) < buffers_popped_) {
+      if (std::chrono::steady_clock::now() > give_up) {
+        buffers_popped_ = context_->buffers_done.load(std::memory_order_acquire);
+        break;
+      }
+      std::this_thread::yield();
+    }
+#endif
+  }
+
   static std::string hex(std::uint32_t value) {
     char text[16];
     std::snprintf(text, sizeof text, "%08x", value);
@@ -707,6 +790,9 @@ class AravisSource final : public FrameSource {
       return false;
     }
     context_ = context;
+#ifdef OCCMAP_TSAN
+    buffers_popped_ = 0;  // a new stream counts its BUFFER_DONE events from 0
+#endif
     for (const Setting& s : settings_) {
       if (s.isStream() && s.name != "stream.realtime_priority" &&
           s.name != "stream.packet_socket" && !setStreamProperty(s, error, config_error))
@@ -719,8 +805,7 @@ class AravisSource final : public FrameSource {
     }
     payload_ = payload;
     context->payload = payload;  // before the buffers go in, which hands it to Aravis's threads
-    for (int i = 0; i < kBuffers; ++i)
-      arv_stream_push_buffer(stream_, arv_buffer_new_allocate(payload));
+    for (int i = 0; i < kBuffers; ++i) giveBack(arv_buffer_new_allocate(payload));
     control_lost_handler_ =
         g_signal_connect_data(device, "control-lost", G_CALLBACK(onControlLost),
                               new ContextRef(context), releaseContextRef, GConnectFlags{});
@@ -774,8 +859,8 @@ class AravisSource final : public FrameSource {
     if (camera_ != nullptr && ARV_IS_FAKE_DEVICE(arv_camera_get_device(camera_))) answering = true;
     if (answering) {
       if (stream_ != nullptr && acquiring_) arv_camera_stop_acquisition(camera_, nullptr);
-      if (stream_ != nullptr) g_object_unref(stream_);
-      if (camera_ != nullptr) g_object_unref(camera_);
+      if (stream_ != nullptr) stopAravisThreads(stream_);
+      if (camera_ != nullptr) stopAravisThreads(camera_);
     } else if (stream_ != nullptr || camera_ != nullptr) {
       Reaper::instance().release(stream_, camera_);
     }
@@ -827,6 +912,9 @@ class AravisSource final : public FrameSource {
   std::int64_t last_frame_ns_ = 0;
   std::int64_t silence_limit_ns_ = 1'000'000'000;
   std::uint64_t delivered_ = 0;
+#ifdef OCCMAP_TSAN
+  std::uint64_t buffers_popped_ = 0;  // since the last connect (awaitBufferDone)
+#endif
   // Stream statistics: those of earlier connections, and this one's as last read.
   TransportCounters base_;
   TransportCounters stream_counts_;

@@ -40,6 +40,16 @@ constexpr bool kSanitized = true;  // rates and latencies are not what is under 
 #else
 constexpr bool kSanitized = false;
 #endif
+// Maps published in 10 s by four 30 fps cameras, at least: two thirds of 300 in the plain build
+// (see there), half that under ASan; under TSan the fusion of four 640x480 frames into the 512x512
+// map takes about 100 ms (69 maps in 10 s measured on this 2-core machine), so a third of that.
+#if defined(__SANITIZE_THREAD__)
+constexpr long long kMinMapsIn10s = 25;
+#elif defined(__SANITIZE_ADDRESS__)
+constexpr long long kMinMapsIn10s = 100;
+#else
+constexpr long long kMinMapsIn10s = 200;
+#endif
 
 std::string address(int k) { return "127.0.0." + std::to_string(k + 1); }
 std::string serial(int k) { return "GV0" + std::to_string(k + 1); }
@@ -196,7 +206,7 @@ TEST_F(FakeGigE, FourCamerasStreamAtThirtyFpsForTenSecondsWithNoFailureCounted) 
   // and fall behind their clock when the machine is busy (27 fps seen under a parallel build; the
   // test runs alone in CTest for that reason), so the floor here is two thirds; what must hold
   // exactly is that nothing fails.
-  EXPECT_GE(maps, kSanitized ? 100 : 200) << "about 30 maps a second";
+  EXPECT_GE(maps, kMinMapsIn10s) << "about 30 maps a second (fewer under the sanitizers)";
   EXPECT_EQ(status.publish_errors, 0);
   for (int k = 0; k < kCameras; ++k) {
     const auto& camera = *listener.camera("gv0" + std::to_string(k + 1));

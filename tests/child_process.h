@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -27,8 +28,14 @@ class ChildProcess {
                const std::vector<std::pair<std::string, std::string>>& environment = {})
       : out_(files.string() + ".out"), err_(files.string() + ".err") {
     std::fflush(nullptr);
+    const pid_t parent = ::getpid();
     pid_ = ::fork();
     if (pid_ == 0) {
+      // Dies with the test: a test killed by a sanitizer (halt_on_error) or a timeout runs no
+      // destructor, and a daemon left behind would hold a core and its ports for the next tests.
+      // (The signal comes when the forking thread ends: tests start children from their own.)
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (::getppid() != parent) ::_exit(125);  // the test was gone before prctl took effect
       for (const auto& [name, value] : environment) ::setenv(name.c_str(), value.c_str(), 1);
       if (std::freopen(out_.c_str(), "w", stdout) == nullptr) ::_exit(126);
       if (std::freopen(err_.c_str(), "w", stderr) == nullptr) ::_exit(126);

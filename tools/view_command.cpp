@@ -2,6 +2,7 @@
 // themselves as a picture or a video.
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <csignal>
 #include <cstdint>
@@ -307,7 +308,10 @@ int run(const ViewOptions& o) {
     const int wait_ms =
         1 + static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(wait).count());
     // Ctrl-C (or SIGTERM) interrupts LCM's wait: that is a stop, with the summary, not a failure.
-    if (bus.handleTimeout(wait_ms) < 0 && g_stop == 0) {
+    // The wait can end with EINTR before the handler has set g_stop (ThreadSanitizer defers
+    // handlers to its next interception point): then the loop looks at g_stop again.
+    errno = 0;
+    if (bus.handleTimeout(wait_ms) < 0 && g_stop == 0 && errno != EINTR) {
       std::fprintf(stderr, "occmap view: failed: LCM stopped receiving (%s)\n", o.lcm_url.c_str());
       return kExitFailure;
     }
