@@ -26,11 +26,12 @@ namespace {
 
 using Keys = std::span<const std::string_view>;
 
-constexpr std::string_view kTopKeys[] = {"map", "cameras", "fusion", "transport"};
+constexpr std::string_view kTopKeys[] = {"map", "cameras", "fusion", "transport", "control"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms"};
 constexpr std::string_view kTransportKeys[] = {"lcm_url", "map_channel", "status_channel",
                                                "encoding"};
+constexpr std::string_view kControlKeys[] = {"enabled", "key_file", "replay_window_s"};
 constexpr std::string_view kCameraKeys[] = {
     "name",       "source",    "calibration", "calibration_units", "image_region", "background",
     "floor_mask", "threshold", "fps",         "settings"};
@@ -214,6 +215,8 @@ class ConfigReader {
         config.fusion = readFusion(entry.value);
       } else if (entry.key == "transport") {
         config.transport = readTransport(entry.value);
+      } else if (entry.key == "control") {
+        config.control = readControl(entry.value);
       }
     }
     if (!has_map) {
@@ -412,7 +415,8 @@ class ConfigReader {
         const std::string_view scheme = url.substr(0, scheme_end);
         constexpr std::string_view kProviders[] = {"udpm", "mpudpm", "tcpq", "memq", "file"};
         if (scheme_end == std::string_view::npos ||
-            std::find(std::begin(kProviders), std::end(kProviders), scheme) == std::end(kProviders)) {
+            std::find(std::begin(kProviders), std::end(kProviders), scheme) ==
+                std::end(kProviders)) {
           fail(entry.value.line, entry.value.field,
                "'" + transport.lcm_url +
                    "' is not an LCM URL; use udpm://239.255.76.67:7667?ttl=0 (UDP multicast, "
@@ -442,6 +446,38 @@ class ConfigReader {
                "\"; subscribers tell maps from status by channel, so they must differ");
     }
     return transport;
+  }
+
+  bool boolean(const Value& value) const {
+    // YAML 1.2's core schema: true or false (yaml-cpp would also take yes/no/on/off, which YAML
+    // 1.2 reads as text: one spelling avoids surprises).
+    if (value.node.IsScalar() && !isText(value.node)) {
+      if (value.node.Scalar() == "true") return true;
+      if (value.node.Scalar() == "false") return false;
+    }
+    fail(value.line, value.field, "must be true or false, got " + describe(value.node));
+  }
+
+  ControlSettings readControl(const Value& value) const {
+    ControlSettings control;
+    bool has_key_file = false;
+    for (const Entry& entry : entries(value, kControlKeys)) {
+      if (entry.key == "enabled") {
+        control.enabled = boolean(entry.value);
+      } else if (entry.key == "key_file") {
+        control.key_file = path(entry.value);
+        control.key_file_line = entry.value.line;
+        has_key_file = true;
+      } else if (entry.key == "replay_window_s") {
+        control.replay_window_s = smallInteger(entry.value, 1, 3600);
+      }
+    }
+    if (control.enabled && !has_key_file) {
+      fail(value.line, child(value.field, "key_file"),
+           "is missing; control requests are authenticated with a key: make one with `occmap "
+           "control --make-key /etc/occmap/control.key` and name it here (docs/control.md)");
+    }
+    return control;
   }
 
   std::vector<CameraConfig> readCameras(const Value& value) const {

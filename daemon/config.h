@@ -33,6 +33,15 @@ struct TransportSettings {
   std::string encoding = "zstd";  // "raw" or "zstd"
 };
 
+// State-changing requests over LCM (docs/control.md): off unless enabled; then each must carry an
+// HMAC under the key in `key_file` and pass the replay window.
+struct ControlSettings {
+  bool enabled = false;
+  std::filesystem::path key_file;  // resolved like every path; required when enabled
+  int replay_window_s = 30;  // requests whose utime is further from the daemon's clock are refused
+  int key_file_line = 0;     // line of key_file, or 0: where a bad key file is pointed at
+};
+
 struct CameraConfig {
   std::string name;
   std::string source;  // as written: files://..., sim://..., aravis://..., v4l2://...
@@ -59,6 +68,7 @@ struct Config {
   MapGeometry map;
   FusionSettings fusion;
   TransportSettings transport;
+  ControlSettings control;
   std::vector<CameraConfig> cameras;
 };
 

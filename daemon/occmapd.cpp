@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "daemon/config.h"
+#include "daemon/control_key.h"
 #include "daemon/exit_codes.h"
 #include "daemon/input_error.h"
 #include "daemon/log.h"
@@ -47,7 +48,17 @@ RigOptions rigOptions(bool open_live_cameras) {
   return options;
 }
 
+// The control key is read here, before any work, so that a key file others can read stops the
+// start (exit 2) and a reload with one is refused while the old config runs on; the pipeline reads
+// it again when it starts.
+void checkControlKey(const Config& config) {
+  if (!config.control.enabled) return;
+  (void)loadControlKey(config.control.key_file,
+                       {config.file.string(), config.control.key_file_line, "control.key_file"});
+}
+
 Prepared prepare(const Config& config, bool open_live_cameras) {
+  checkControlKey(config);
   Rig rig = Rig::open(config, rigOptions(open_live_cameras));
   std::vector<CarveTable> tables = rig.buildTables(config.fusion.column_height_m);
   for (const std::string& warning : rig.warnings())
@@ -95,6 +106,12 @@ PipelineOptions optionsFromEnvironment(std::chrono::steady_clock::time_point sta
   if (const char* stall = std::getenv("OCCMAP_TEST_STALL_FUSION_AFTER_MAPS")) {
     options.stall_fusion_after_maps = std::strtoull(stall, nullptr, 10);
   }
+  // systemd's StateDirectory= (/var/lib/occmap): where a recaptured background is saved. It may
+  // list several folders, separated by ':'; the first is ours.
+  if (const char* state = std::getenv("STATE_DIRECTORY"); state != nullptr && *state != '\0') {
+    const std::string folders = state;
+    options.state_directory = folders.substr(0, folders.find(':'));
+  }
   return options;
 }
 
@@ -104,6 +121,7 @@ int run(const Options& options) {
     // Live cameras are not opened: a running daemon holds them. Their settings are checked when
     // occmapd opens them (a refused one is the same exit code 2 then).
     const Config config = loadConfig(options.config);
+    checkControlKey(config);
     const Rig rig = Rig::open(config, rigOptions(false));
     const auto live = std::count_if(rig.cameras().begin(), rig.cameras().end(),
                                     [](const RigCamera& camera) { return camera.live; });
@@ -221,7 +239,10 @@ int main(int argc, char** argv) {
       "Reads every camera of the config in its own thread, fuses each frame set into a map of the "
       "floor (FREE, OCCUPIED, UNSEEN) and broadcasts it over LCM (channel OCCMAP_MAP by default); "
       "publishes its status every second on OCCMAP_STATUS and answers requests on "
-      "OCCMAP_STATUS_REQUEST (see `occmap status`, `occmap view`).\n\n"
+      "OCCMAP_STATUS_REQUEST (see `occmap status`, `occmap view`). With the config's `control` "
+      "section enabled, it takes authenticated requests to change a camera's threshold or "
+      "recapture its background on OCCMAP_STATUS_CONTROL (see `occmap control`, "
+      "docs/control.md).\n\n"
       "Signals: SIGTERM/SIGINT stop cleanly (exit 0); SIGHUP reloads the config, and an invalid "
       "new config is reported while the old one keeps running.\n"
       "Under systemd (Type=notify) it reports READY=1 once every camera has delivered a frame or "

@@ -6,12 +6,14 @@
 #include <future>
 #include <stdexcept>
 
+#include <occmap/control_status_t.hpp>
 #include <occmap/status_t.hpp>
 #include <poll.h>
 #include <sys/eventfd.h>
 #include <time.h>
 #include <unistd.h>
 
+#include "transport/control_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
 #include "transport/status_message.h"
@@ -92,6 +94,19 @@ Pipeline::Pipeline(Rig rig, std::vector<CarveTable> tables, PipelineOptions opti
   if (fusion_wakeup_ < 0 || publish_wakeup_ < 0) {
     throw std::runtime_error(std::string("eventfd: ") + std::strerror(errno));
   }
+  std::vector<CameraControl*> controls;
+  for (std::size_t k = 0; k < cameras; ++k) {
+    const RigCamera& camera = rig_.cameras()[k];
+    camera_controls_.push_back(
+        std::make_unique<CameraControl>(camera.name, camera.background, camera.threshold,
+                                        rig_.config().cameras[k].fps.value_or(30.0)));
+    controls.push_back(camera_controls_.back().get());
+  }
+  RemoteControl::Options control;
+  control.state_directory = options_.state_directory;
+  control.max_requests_per_s = options_.max_control_requests_per_s;
+  control.wake_lcm = [this] { wake(publish_wakeup_); };
+  control_ = std::make_unique<RemoteControl>(rig_.config(), std::move(controls), control);
 }
 
 Pipeline::~Pipeline() {
@@ -118,6 +133,7 @@ void Pipeline::start() {
     throw std::runtime_error(problem);
   }
   started_ = true;
+  control_->start();
   start_ns_ = monotonicNanoseconds();
   last_fused_ns_ = start_ns_;
   threads_.emplace_back([this] { fusionLoop(); });
@@ -130,6 +146,7 @@ void Pipeline::stop() {
   if (!started_ || stopping_.exchange(true)) return;
   // threads_: the LCM thread, the fusion thread, then one per camera.
   for (std::size_t t = 2; t < threads_.size(); ++t) threads_[t].join();
+  control_->stop();  // a recapture under way is given up: its camera delivers no more frames
   stop_fusion_.store(true);
   wake(fusion_wakeup_);
   threads_[1].join();
@@ -176,7 +193,7 @@ void Pipeline::captureLoop(std::size_t k) {
   FrameSource& source = *camera.source;
   CameraCounters& counters = *counters_[k];
   SpscRing<CapturedFrame>& ring = *rings_[k];
-  const ImageView background = camera.background.view();
+  CameraControl& control = *camera_controls_[k];
   const double fps = rig_.config().cameras[k].fps.value_or(30.0);
   const auto period_ns = static_cast<std::int64_t>(1e9 / fps);
   std::int64_t next_ns = monotonicNanoseconds();
@@ -249,6 +266,7 @@ void Pipeline::captureLoop(std::size_t k) {
       continue;
     }
     const std::int64_t arrived_ns = monotonicNanoseconds();
+    control.recorder.record(frame.image);  // one atomic load unless a recapture is under way
     CapturedFrame* slot = ring.writeSlot();
     if (slot == nullptr) {
       // Fusion is behind and holds every slot: drop the newest, count it, say so now and then.
@@ -264,7 +282,10 @@ void Pipeline::captureLoop(std::size_t k) {
       std::memcpy(slot->image.row(v), frame.image.row(v),
                   static_cast<std::size_t>(frame.image.width));
     }
-    kernel_.markChangedPixels(k, frame.image, background, camera.threshold, slot->changed.data());
+    // Both may change at any frame (control requests): read once per frame, without a lock.
+    const ImageView background = control.background.current().view();
+    const int threshold = control.threshold.load(std::memory_order_relaxed);
+    kernel_.markChangedPixels(k, frame.image, background, threshold, slot->changed.data());
     slot->sequence = frame.sequence;
     slot->capture_time_us = frame.capture_time_us;
     slot->monotonic_ns = arrived_ns;
@@ -414,6 +435,11 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
                   }
                   pending[pending_count++] = *request_id;
                 });
+  // Control requests: checked and acted on here, in the LCM thread (remote_control.h).
+  bus.subscribe(controlRequestChannel(transport.status_channel),
+                [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+                  control_->handle(data, size, hostTimeMicroseconds(), bus);
+                });
   for (const auto& [channel, handler] : options_.subscriptions) {
     bus.subscribe(channel, [handler](const std::uint8_t* data, std::size_t size, std::int64_t) {
       handler(data, size);
@@ -441,6 +467,9 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
   std::int64_t last_token_ns = next_status_ns;
   std::vector<std::uint8_t> status_buffer;
   occmap::status_t status;
+  const std::string control_status_channel = controlStatusChannel(transport.status_channel);
+  std::vector<std::uint8_t> control_status_buffer;
+  occmap::control_status_t control_status;
   std::int64_t next_seq = 0;
 
   auto publishStatus = [&](std::int64_t request_id, std::int64_t now) {
@@ -496,6 +525,38 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
     if (!bus.publish(transport.status_channel, status_buffer)) {
       publish_errors_.fetch_add(1, std::memory_order_relaxed);
     }
+    // Its companion, control_status_t: a type of its own, so that status_t stays the type every
+    // reader built before control requests decodes (lcmtypes/control_status_t.lcm). The same
+    // utime, request_id and hostname pair the two. Filled in place like the status: once its
+    // strings and vectors have their size (the first time), this allocates nothing.
+    const ControlCounts control = control_->counts();
+    control_status.utime = status.utime;
+    control_status.request_id = request_id;
+    control_status.hostname = host;
+    control_status.control_enabled = control_->enabled();
+    control_status.disabled = static_cast<std::int64_t>(control.disabled);
+    control_status.malformed = static_cast<std::int64_t>(control.malformed);
+    control_status.bad_mac = static_cast<std::int64_t>(control.bad_mac);
+    control_status.stale = static_cast<std::int64_t>(control.stale);
+    control_status.refused = static_cast<std::int64_t>(control.refused);
+    control_status.accepted = static_cast<std::int64_t>(control.accepted);
+    control_status.num_cameras = static_cast<std::int16_t>(counters_.size());
+    control_status.camera_name.resize(counters_.size());
+    control_status.camera_threshold.resize(counters_.size());
+    control_status.camera_background_utime.resize(counters_.size());
+    for (std::size_t k = 0; k < counters_.size(); ++k) {
+      control_status.camera_name[k] = rig_.cameras()[k].name;
+      control_status.camera_threshold[k] =
+          camera_controls_[k]->threshold.load(std::memory_order_relaxed);
+      control_status.camera_background_utime[k] =
+          camera_controls_[k]->background_utime.load(std::memory_order_relaxed);
+    }
+    control_status_buffer.resize(static_cast<std::size_t>(control_status.getEncodedSize()));
+    control_status.encode(control_status_buffer.data(), 0,
+                          static_cast<int>(control_status_buffer.size()));
+    if (!bus.publish(control_status_channel, control_status_buffer)) {
+      publish_errors_.fetch_add(1, std::memory_order_relaxed);
+    }
   };
 
   RateLimit publish_warnings(std::chrono::seconds(10));
@@ -532,6 +593,8 @@ void Pipeline::lcmLoop(std::promise<std::string>& opened) {
     if (fds[0].revents & POLLIN) drainEventfd(publish_wakeup_);
     publishNewestMap();
     if (fds[1].revents & POLLIN) bus.handleTimeout(0);
+    control_->publishReplies(bus);
+    if (options_.each_lcm_round) options_.each_lcm_round(bus);
     now = monotonicNanoseconds();
     answer_tokens = std::min(options_.max_status_answers_per_s,
                              answer_tokens + static_cast<double>(now - last_token_ns) / 1e9 *

@@ -3,10 +3,12 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <future>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <utility>
@@ -18,9 +20,12 @@
 #include "core/spsc_ring.h"
 #include "core/triple_buffer.h"
 #include "daemon/log.h"
+#include "daemon/remote_control.h"
 #include "daemon/rig.h"
 
 namespace occmap {
+
+class LcmBus;
 
 // What the daemon as a whole is doing, for status_t.state.
 enum class DaemonState : std::uint8_t {
@@ -43,9 +48,17 @@ struct PipelineOptions {
   std::chrono::milliseconds heartbeat{1000};
   // Status requests answered at most this often (a flood must not take the map's bandwidth).
   double max_status_answers_per_s = 20.0;
+  // Authenticated control requests acted on at most this often (docs/control.md).
+  double max_control_requests_per_s = 10.0;
+  // Where a recaptured background is saved ($STATE_DIRECTORY under systemd), or nowhere.
+  std::optional<std::filesystem::path> state_directory;
   // Test hooks: extra LCM subscriptions, registered in the LCM thread (their handlers run there).
   using Handler = std::function<void(const std::uint8_t* data, std::size_t size)>;
   std::vector<std::pair<std::string, Handler>> subscriptions;
+  // Test hook: runs in the LCM thread at every round of its loop (ten a second at least), with the
+  // daemon's own bus, to publish what another program on the network would (memq:// is private to
+  // its handle); the daemon's subscriptions hear it at the next round.
+  std::function<void(LcmBus& bus)> each_lcm_round;
   // Fault injection for tests of the watchdog: fusion hangs after this many maps (0 = never).
   std::uint64_t stall_fusion_after_maps = 0;
 };
@@ -57,7 +70,9 @@ class TimeHistogram {
   static constexpr int kBins = 10'000;
   void record(std::int64_t ns);
   double percentileMs(double fraction) const;
-  double maxMs() const { return static_cast<double>(max_ns_.load(std::memory_order_relaxed)) / 1e6; }
+  double maxMs() const {
+    return static_cast<double>(max_ns_.load(std::memory_order_relaxed)) / 1e6;
+  }
   std::uint64_t count() const { return count_.load(std::memory_order_relaxed); }
 
  private:
@@ -108,6 +123,11 @@ class Pipeline {
   // One line for systemd's STATUS=: maps/s, cameras streaming, drops.
   std::string summary() const;
   void setState(DaemonState state) { state_.store(state, std::memory_order_relaxed); }
+  // How control requests ended (docs/control.md), and each camera's threshold in effect.
+  ControlCounts controlCounts() const { return control_->counts(); }
+  int threshold(std::size_t camera) const {
+    return camera_controls_[camera]->threshold.load(std::memory_order_relaxed);
+  }
   const Config& config() const { return rig_.config(); }
   // After stop(): the rig (with its open cameras) and the tables, for a reload to take over.
   Rig takeRig() { return std::move(rig_); }
@@ -157,6 +177,10 @@ class Pipeline {
   std::vector<std::unique_ptr<SpscRing<CapturedFrame>>> rings_;
   std::vector<std::unique_ptr<CameraCounters>> counters_;
   std::vector<std::unique_ptr<RateLimit>> drop_warnings_;
+  // What control requests change, per camera (threshold, background), and the requests' handler;
+  // declared in this order so that the handler, which points at them, goes first.
+  std::vector<std::unique_ptr<CameraControl>> camera_controls_;
+  std::unique_ptr<RemoteControl> control_;
   TripleBuffer<MapFrame> maps_;
   TimeHistogram fusion_times_;
   TimeHistogram publish_latency_;  // written by the LCM thread

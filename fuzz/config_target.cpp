@@ -53,6 +53,10 @@ void checkAcceptedConfig(const Config& config) {
   require(!config.transport.map_channel.empty() && !config.transport.status_channel.empty() &&
               config.transport.map_channel != config.transport.status_channel,
           "accepted map and status channels are two different names");
+  require(config.control.replay_window_s >= 1 && config.control.replay_window_s <= 3600,
+          "an accepted control.replay_window_s is 1..3600 s");
+  require(!config.control.enabled || config.control.key_file.is_absolute(),
+          "an enabled control section names its key file, made absolute");
   require(!config.cameras.empty(), "an accepted config has a camera");
   // map_frame_t and status_t count cameras in an int16_t.
   require(config.cameras.size() <= 32767, "an accepted config has at most 32767 cameras");

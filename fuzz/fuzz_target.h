@@ -18,6 +18,8 @@
 #include <string>
 #include <string_view>
 
+#include "transport/control_message.h"
+
 namespace occmap::fuzz {
 
 using Input = std::span<const std::uint8_t>;
@@ -44,6 +46,20 @@ bool fuzzOpenCvCalibration(Input input);  // opencv_calibration: cv::FileStorage
 bool fuzzStatusRequest(Input input);      // status_request: status_request_t, read by occmapd
 bool fuzzMapFrame(Input input);           // map_frame: map_frame_t, read by occmap view
 bool fuzzStatus(Input input);             // status: status_t, read by occmap status
+bool fuzzControlRequest(Input input);     // control_request: control_request_t, read by occmapd
+bool fuzzControlStatus(Input input);      // control_status: control_status_t, read by occmap status
+
+// The key the control_request seeds are signed with (fuzz_make_seeds): bytes 0, 1, ..., 31. Not
+// a secret: it exists so that fuzzing starts from requests whose mac holds.
+inline const ControlKey& controlFuzzKey() {
+  static const ControlKey key = [] {
+    ControlKey made;
+    made.size = ControlKey::kMinBytes;
+    for (std::size_t i = 0; i < made.size; ++i) made.bytes[i] = static_cast<std::uint8_t>(i);
+    return made;
+  }();
+  return key;
+}
 
 struct Target {
   const char* name;
@@ -57,6 +73,8 @@ inline constexpr Target kTargets[] = {
     {"status_request", fuzzStatusRequest},
     {"map_frame", fuzzMapFrame},
     {"status", fuzzStatus},
+    {"control_request", fuzzControlRequest},
+    {"control_status", fuzzControlStatus},
 };
 
 }  // namespace occmap::fuzz

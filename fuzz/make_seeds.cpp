@@ -10,9 +10,13 @@
 #include <string>
 #include <vector>
 
+#include <occmap/control_request_t.hpp>
+#include <occmap/control_status_t.hpp>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 
+#include "fuzz/fuzz_target.h"
+#include "transport/control_message.h"
 #include "transport/map_codec.h"
 
 namespace {
@@ -114,11 +118,53 @@ int main(int argc, char** argv) {
   status.cameras[1].last_error = "no frame for 1 s";
   status.num_cameras = static_cast<std::int16_t>(status.cameras.size());
   writeMessage(corpus / "status" / "periodic-3-cameras.bin", status);
+
+  // The control status published with that status (the same utime, request_id and hostname).
+  occmap::control_status_t control_status{};
+  control_status.utime = status.utime;
+  control_status.request_id = status.request_id;
+  control_status.hostname = status.hostname;
+  control_status.control_enabled = true;
+  control_status.disabled = 0;
+  control_status.malformed = 5;
+  control_status.bad_mac = 2;
+  control_status.stale = 1;
+  control_status.refused = 1;
+  control_status.accepted = 3;
+  control_status.camera_name = {"c0", "c1", "c2"};
+  control_status.camera_threshold = {20, 35, 128};
+  control_status.camera_background_utime = {0, 1'699'999'000'000'000, 0};
+  control_status.num_cameras = static_cast<std::int16_t>(control_status.camera_name.size());
+  writeMessage(corpus / "control_status" / "periodic-3-cameras.bin", control_status);
+
   status.request_id = 77;
   status.state = occmap::status_t::STATE_STARTING;
   status.cameras.clear();
   status.num_cameras = 0;
   writeMessage(corpus / "status" / "answer-no-cameras.bin", status);
+  control_status.request_id = 77;
+  control_status.control_enabled = false;
+  control_status.camera_name.clear();
+  control_status.camera_threshold.clear();
+  control_status.camera_background_utime.clear();
+  control_status.num_cameras = 0;
+  writeMessage(corpus / "control_status" / "answer-control-off-no-cameras.bin", control_status);
+
+  // Signed with the control target's key (fuzz/fuzz_target.h), so that a seed goes all the way.
+  occmap::control_request_t control{};
+  control.request_id = 0x0123'4567'89ab'cdef;
+  control.utime = 1'700'000'000'000'000;
+  control.nonce = 0x5eed'5eed'5eed'5eed;
+  control.command = std::string(occmap::kSetThreshold);
+  control.camera = "c0";
+  control.value = 35;
+  write(corpus / "control_request" / "set-threshold.bin",
+        occmap::encodeControlRequest(occmap::fuzz::controlFuzzKey(), control));
+  control.command = std::string(occmap::kRecaptureBackground);
+  control.camera = "door-camera";
+  control.value = 50;
+  write(corpus / "control_request" / "recapture-background.bin",
+        occmap::encodeControlRequest(occmap::fuzz::controlFuzzKey(), control));
 
   writeMap(corpus / "map_frame" / "raw-8x6-2-cameras.bin", {-1.0, -1.5, 0.25, 8, 6}, {"c0", "c1"},
            occmap::MapEncoding::kRaw);

@@ -178,6 +178,9 @@ TEST_F(LiveLcm, StatusPrintsTheAnswerAsATableAndAsJson) {
         "door-camera  down           106700         3     0.0  4.2 s ago"}) {
     EXPECT_NE(table.find(expected), std::string::npos) << "no '" << expected << "' in\n" << table;
   }
+  // The publisher answers as a daemon from before control requests does: a status_t and no
+  // control_status_t. That is the whole table, without a control section.
+  EXPECT_EQ(table.find("control requests"), std::string::npos) << table;
   result = runCommand({kOccmap, "status", "--json"});
   ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
   for (const char* expected :
@@ -188,6 +191,7 @@ TEST_F(LiveLcm, StatusPrintsTheAnswerAsATableAndAsJson) {
         << "no " << expected << " in " << result.out;
   }
   EXPECT_EQ(std::count(result.out.begin(), result.out.end(), '\n'), 1) << result.out;
+  EXPECT_EQ(result.out.find("control_"), std::string::npos) << result.out;
 }
 
 TEST(OccmapViewArguments, RefusesAVideoThatIsNotAvi) {

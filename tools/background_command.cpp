@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "capture/image_file.h"
+#include "core/background_median.h"
 #include "daemon/config.h"
 #include "daemon/exit_codes.h"
 #include "daemon/input_error.h"
@@ -39,8 +40,7 @@ int run(const BackgroundOptions& o) {
   const int width = source.width();
   const int height = source.height();
   const std::size_t pixels = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
-  // All frames are kept (N x the image), then each pixel's median is picked out: exact, and cheap
-  // for the tens to hundreds of frames this is for.
+  // All frames are kept (N x the image), then each pixel's median is picked out.
   std::vector<std::uint8_t> stack;
   stack.reserve(pixels * static_cast<std::size_t>(o.frames));
   Progress progress("frames of " + camera.name, static_cast<std::uint64_t>(o.frames));
@@ -82,15 +82,7 @@ int run(const BackgroundOptions& o) {
     std::fprintf(stderr, "occmap background: camera %s gave no frame\n", camera.name.c_str());
     return kExitNoResult;
   }
-  Image median(width, height);
-  std::vector<std::uint8_t> values(static_cast<std::size_t>(taken));
-  for (std::size_t p = 0; p < pixels; ++p) {
-    for (int k = 0; k < taken; ++k)
-      values[static_cast<std::size_t>(k)] = stack[static_cast<std::size_t>(k) * pixels + p];
-    const auto middle = values.begin() + taken / 2;
-    std::nth_element(values.begin(), middle, values.end());
-    median.data()[p] = *middle;
-  }
+  const Image median = backgroundMedian(stack, taken, width, height);
   std::string error;
   if (!writeGreyPng(o.out, median, error)) {
     std::fprintf(stderr, "occmap background: %s\n", error.c_str());

@@ -16,5 +16,6 @@ Command addCoverageCommand(CLI::App& app);
 Command addBackgroundCommand(CLI::App& app);
 Command addViewCommand(CLI::App& app);
 Command addStatusCommand(CLI::App& app);
+Command addControlCommand(CLI::App& app);
 
 }  // namespace occmap::tools

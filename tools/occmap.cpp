@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
   add(tools::addBackgroundCommand, "background");
   add(tools::addViewCommand, "view");
   add(tools::addStatusCommand, "status");
+  add(tools::addControlCommand, "control");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -6,12 +6,14 @@
 #include <random>
 #include <vector>
 
+#include <occmap/control_status_t.hpp>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 
 #include "daemon/config.h"
 #include "daemon/exit_codes.h"
 #include "tools/commands.h"
+#include "transport/control_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/status_message.h"
 #include "transport/status_text.h"
@@ -62,7 +64,8 @@ int run(const StatusOptions& o) {
         if (!status) {
           ++undecodable;
         } else if (status->request_id == request_id) {
-          answer = std::move(status);
+          // The first answer is the one printed (another daemon on the channel may answer too).
+          if (!answer) answer = std::move(status);
         } else if (status->request_id == -1) {
           ++periodic;
           periodic_host = terminalText(status->hostname);
@@ -70,11 +73,32 @@ int run(const StatusOptions& o) {
           ++others;  // an answer to someone else's request
         }
       });
-  if (!subscribed) {
-    std::fprintf(stderr, "occmap status: failed: cannot subscribe to %s at %s\n", o.channel.c_str(),
-                 o.lcm_url.c_str());
+  // The control_status_t published with each status_t (lcmtypes/control_status_t.lcm): ours has
+  // our request id and the answering daemon's hostname. It may come before or after the status,
+  // so those with our id are kept (a few: several daemons may answer, strangers may forge).
+  const std::string control_channel = controlStatusChannel(o.channel);
+  constexpr std::size_t kMaxControlAnswers = 8;
+  std::vector<occmap::control_status_t> control_answers;
+  const bool control_subscribed =
+      bus.subscribe(control_channel, [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+        // Checked as carefully as the status (status_message.h).
+        std::optional<occmap::control_status_t> control = decodeControlStatus(data, size);
+        if (control && control->request_id == request_id &&
+            control_answers.size() < kMaxControlAnswers) {
+          control_answers.push_back(std::move(*control));
+        }
+      });
+  if (!subscribed || !control_subscribed) {
+    std::fprintf(stderr, "occmap status: failed: cannot subscribe to %s at %s\n",
+                 (subscribed ? control_channel : o.channel).c_str(), o.lcm_url.c_str());
     return kExitFailure;
   }
+  const auto controlOfAnswer = [&]() -> const occmap::control_status_t* {
+    for (const occmap::control_status_t& control : control_answers) {
+      if (control.hostname == answer->hostname) return &control;
+    }
+    return nullptr;
+  };
 
   const std::string request_channel = statusRequestChannel(o.channel);
   std::vector<std::uint8_t> buffer;
@@ -83,10 +107,16 @@ int run(const StatusOptions& o) {
   const auto deadline =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.timeout));
   auto next_request = start;
-  while (!answer) {
+  // Once the status has come, its control_status_t gets this long more (within the deadline): the
+  // daemon sends it right after the status, and a daemon from before control requests never does,
+  // which must not cost its user the whole timeout.
+  constexpr auto kControlGrace = std::chrono::milliseconds(500);
+  std::optional<Clock::time_point> control_deadline;
+  while (!answer || controlOfAnswer() == nullptr) {
     const auto now = Clock::now();
-    if (now >= deadline) break;
-    if (now >= next_request) {  // again every 0.5 s: a datagram may be lost
+    if (answer && !control_deadline) control_deadline = std::min(deadline, now + kControlGrace);
+    if (now >= (control_deadline ? *control_deadline : deadline)) break;
+    if (!answer && now >= next_request) {  // again every 0.5 s: a datagram may be lost
       occmap::status_request_t request{};
       request.utime = nowUtime();
       request.request_id = request_id;
@@ -100,8 +130,8 @@ int run(const StatusOptions& o) {
       ++requests;
       next_request += std::chrono::milliseconds(500);
     }
-    const auto wait = std::min(std::min(next_request, deadline) - now,
-                               Clock::duration(std::chrono::milliseconds(50)));
+    const auto until = control_deadline ? *control_deadline : std::min(next_request, deadline);
+    const auto wait = std::min(until - now, Clock::duration(std::chrono::milliseconds(50)));
     const int wait_ms =
         1 + static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(wait).count());
     if (bus.handleTimeout(wait_ms) < 0) {
@@ -133,10 +163,13 @@ int run(const StatusOptions& o) {
     }
     return kExitNoResult;
   }
+  // Without a control_status_t (a daemon from before control requests, or one lost on the way),
+  // the status alone, as such a daemon always gave it.
+  const occmap::control_status_t* control = controlOfAnswer();
   if (o.json) {
-    std::printf("%s\n", formatStatusJson(*answer).c_str());
+    std::printf("%s\n", formatStatusJson(*answer, control).c_str());
   } else {
-    std::printf("%s", formatStatusTable(*answer).c_str());
+    std::printf("%s", formatStatusTable(*answer, control).c_str());
   }
   return kExitOk;
 }
@@ -152,7 +185,11 @@ Command addStatusCommand(CLI::App& app) {
       "(OCCMAP_STATUS_REQUEST by default), again every 0.5 s, until occmapd answers on the "
       "status channel with that id; then prints the daemon's state, uptime, maps published, "
       "publish errors, maps per second and fusion time (p50, p99), and a table of its cameras: "
-      "state, frames in, frames dropped, frames per second and the age of the last capture.\n\n"
+      "state, frames in, frames dropped, frames per second and the age of the last capture; then, "
+      "from the control status the daemon sends with it (on the status channel's name + "
+      "\"_CONTROL_STATUS\"; a daemon from before control requests sends none), what became of "
+      "control requests (`occmap control`, docs/control.md) and, when they are enabled, each "
+      "camera's threshold and background.\n\n"
       "Examples:\n"
       "  occmap status\n"
       "  occmap status --lcm-url 'udpm://239.255.76.67:7667?ttl=1' --timeout 5 --json\n\n"
@@ -171,7 +208,7 @@ Command addStatusCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_flag("--json", options->json,
                     "Print the answer as one JSON object on one line (every status_t field by its "
-                    "LCM name, states also by name)");
+                    "LCM name, states also by name; then control_status_t's: control_*, camera_*)");
   return [options] { return run(*options); };
 }
 

@@ -58,6 +58,33 @@ const char* statusLayoutError(const std::uint8_t* data, std::size_t size) {
   return "";
 }
 
+// The same for control_status_t (lcmtypes/control_status_t.lcm).
+const char* controlStatusLayoutError(const std::uint8_t* data, std::size_t size) {
+  WireReader in(data, size);
+  std::int64_t fingerprint = 0;
+  if (!in.read(fingerprint)) return "too short for an LCM message";
+  if (fingerprint != occmap::control_status_t::getHash()) {
+    return "not an occmap.control_status_t (fingerprint)";
+  }
+  if (!readAll<std::int64_t, std::int64_t>(in)) return "truncated in utime or request_id";
+  if (!readStrings(in, 1)) return "hostname is not a string that fits";
+  if (!readAll<std::int8_t, std::int64_t, std::int64_t, std::int64_t, std::int64_t, std::int64_t,
+               std::int64_t>(in)) {
+    return "truncated in the control counts";
+  }
+  std::int16_t cameras = 0;
+  if (!in.read(cameras)) return "truncated before num_cameras";
+  if (cameras < 0) return "num_cameras is negative";
+  if (!readStrings(in, cameras)) return "a camera's name is not a string that fits";
+  // camera_threshold[num_cameras] (int32), then camera_background_utime[num_cameras] (int64): at
+  // most 32767 * 12 bytes, no overflow.
+  if (!in.skip(static_cast<std::size_t>(cameras) * (4 + 8))) {
+    return "truncated in the cameras' thresholds or background times";
+  }
+  if (in.remaining() != 0) return "bytes left over: the counts do not add up to the size";
+  return "";
+}
+
 }  // namespace
 
 std::optional<std::int64_t> decodeStatusRequest(const std::uint8_t* data, std::size_t size) {
@@ -80,6 +107,27 @@ std::optional<occmap::status_t> decodeStatus(const std::uint8_t* data, std::size
   if (size > static_cast<std::size_t>(INT_MAX)) return refuse("larger than LCM allows");
   if (const char* why = statusLayoutError(data, size); *why != '\0') return refuse(why);
   occmap::status_t status{};
+  try {
+    // Every count agrees with `size`, so this allocates no more than the message holds.
+    if (status.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
+      return refuse("LCM's decoder did not take the whole message");
+    }
+  } catch (const std::exception&) {
+    return refuse("out of memory while decoding");
+  }
+  return status;
+}
+
+std::optional<occmap::control_status_t> decodeControlStatus(const std::uint8_t* data,
+                                                            std::size_t size, std::string* error) {
+  auto refuse = [error](const char* why) -> std::optional<occmap::control_status_t> {
+    if (error != nullptr) *error = why;
+    return std::nullopt;
+  };
+  if (data == nullptr) return refuse("no data");
+  if (size > static_cast<std::size_t>(INT_MAX)) return refuse("larger than LCM allows");
+  if (const char* why = controlStatusLayoutError(data, size); *why != '\0') return refuse(why);
+  occmap::control_status_t status{};
   try {
     // Every count agrees with `size`, so this allocates no more than the message holds.
     if (status.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {

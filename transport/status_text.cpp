@@ -192,7 +192,7 @@ std::string cameraStateName(int state) {
   }
 }
 
-std::string formatStatusTable(const occmap::status_t& s) {
+std::string formatStatusTable(const occmap::status_t& s, const occmap::control_status_t* control) {
   std::string text =
       "occmapd on " + (s.hostname.empty() ? std::string("?") : terminalText(s.hostname));
   if (!s.config_file.empty()) text += " (config " + terminalText(s.config_file) + ")";
@@ -230,10 +230,32 @@ std::string formatStatusTable(const occmap::status_t& s) {
     if (!c.last_error.empty())
       text += names[k] + ": last error: " + terminalText(c.last_error) + "\n";
   }
+  if (control != nullptr) text += formatControlStatusTable(*control);
   return text;
 }
 
-std::string formatStatusJson(const occmap::status_t& s) {
+std::string formatControlStatusTable(const occmap::control_status_t& c) {
+  std::string text = format("control requests %s: accepted %" PRId64 ", refused %" PRId64
+                            "; ignored: %" PRId64 " while off, %" PRId64 " malformed, %" PRId64
+                            " bad mac, %" PRId64 " stale or replayed\n",
+                            c.control_enabled ? "on" : "off", c.accepted, c.refused, c.disabled,
+                            c.malformed, c.bad_mac, c.stale);
+  if (!c.control_enabled) return text;
+  // What a control request changed, per camera (the arrays are as long as num_cameras in any
+  // message that decodes; a hand-made one may not be).
+  const std::size_t cameras =
+      std::min({c.camera_name.size(), c.camera_threshold.size(), c.camera_background_utime.size()});
+  for (std::size_t k = 0; k < cameras; ++k) {
+    const std::int64_t made = c.camera_background_utime[k];
+    const std::string background =
+        made == 0 ? std::string("from the config") : "recaptured " + age(c.utime, made);
+    text += format("%s: threshold %d, background %s\n", terminalText(c.camera_name[k]).c_str(),
+                   c.camera_threshold[k], background.c_str());
+  }
+  return text;
+}
+
+std::string formatStatusJson(const occmap::status_t& s, const occmap::control_status_t* control) {
   std::string j = "{";
   j += "\"utime\":" + jsonNumber(s.utime);
   j += ",\"request_id\":" + jsonNumber(s.request_id);
@@ -266,7 +288,33 @@ std::string formatStatusJson(const occmap::status_t& s) {
     j += ",\"reconnects\":" + jsonNumber(std::int64_t{c.reconnects});
     j += ",\"last_error\":" + jsonString(c.last_error) + "}";
   }
-  return j + "]}";
+  j += "]";
+  if (control != nullptr) {
+    // The control_status_t's fields, named as they would be if they were status_t's (control_*),
+    // and the per-camera arrays in the order of its camera_name.
+    const occmap::control_status_t& c = *control;
+    j += ",\"control_enabled\":" + std::string(c.control_enabled ? "true" : "false");
+    j += ",\"control_disabled\":" + jsonNumber(c.disabled);
+    j += ",\"control_malformed\":" + jsonNumber(c.malformed);
+    j += ",\"control_bad_mac\":" + jsonNumber(c.bad_mac);
+    j += ",\"control_stale\":" + jsonNumber(c.stale);
+    j += ",\"control_refused\":" + jsonNumber(c.refused);
+    j += ",\"control_accepted\":" + jsonNumber(c.accepted);
+    j += ",\"camera_name\":[";
+    for (std::size_t k = 0; k < c.camera_name.size(); ++k) {
+      j += (k > 0 ? "," : "") + jsonString(c.camera_name[k]);
+    }
+    j += "],\"camera_threshold\":[";
+    for (std::size_t k = 0; k < c.camera_threshold.size(); ++k) {
+      j += (k > 0 ? "," : "") + jsonNumber(std::int64_t{c.camera_threshold[k]});
+    }
+    j += "],\"camera_background_utime\":[";
+    for (std::size_t k = 0; k < c.camera_background_utime.size(); ++k) {
+      j += (k > 0 ? "," : "") + jsonNumber(c.camera_background_utime[k]);
+    }
+    j += "]";
+  }
+  return j + "}";
 }
 
 }  // namespace occmap

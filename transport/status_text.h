@@ -8,18 +8,28 @@
 #include <string>
 #include <string_view>
 
+#include <occmap/control_status_t.hpp>
 #include <occmap/status_t.hpp>
 
 namespace occmap {
 
 // A few lines on the daemon (state, uptime, maps published, publish errors, maps/s, fusion p50 and
 // p99), then a table with one row per camera: name, state, frames in, dropped, fps, and the age of
-// its last capture at the time of the status. Ends with a newline.
-std::string formatStatusTable(const occmap::status_t& status);
+// its last capture at the time of the status. With `control` (the control_status_t published with
+// it), then formatControlStatusTable(*control). Ends with a newline.
+std::string formatStatusTable(const occmap::status_t& status,
+                              const occmap::control_status_t* control = nullptr);
+
+// What became of control requests, as lines for the status table: one with the six counters and,
+// when control is enabled, one per camera with its threshold and background. Ends with a newline.
+std::string formatControlStatusTable(const occmap::control_status_t& control);
 
 // One JSON object on one line (no newline), every field of status_t by its LCM name, states also
-// by name ("state_name"), cameras as an array of objects.
-std::string formatStatusJson(const occmap::status_t& status);
+// by name ("state_name"), cameras as an array of objects. With `control`, its fields follow
+// ("control_enabled", the six counters as "control_disabled" ... "control_accepted", and the
+// arrays "camera_name", "camera_threshold", "camera_background_utime").
+std::string formatStatusJson(const occmap::status_t& status,
+                             const occmap::control_status_t* control = nullptr);
 
 // A text from the network (a host or camera name, an error) as it may be printed on a terminal:
 // control characters and bytes that are not UTF-8 become '?', so an escape sequence shows as text.

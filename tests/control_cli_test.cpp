@@ -1,0 +1,111 @@
+// `occmap control` against occmapd, both as processes, over LCM's UDP multicast in a private
+// network namespace (docs/control.md): a threshold set and seen in `occmap status`, a reason for a
+// refusal, no reply (exit 3) under another key, a reload (SIGHUP) going back to the config's
+// values; and --make-key. Skips without a network namespace (root or CAP_SYS_ADMIN).
+#include <chrono>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include "child_process.h"
+#include "network_namespace.h"
+#include "sim_room_config.h"
+#include "temporary_folder.h"
+
+namespace occmap {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::ChildProcess;
+using testing::runCommand;
+using testing::TemporaryFolder;
+
+const std::string kOccmapd = OCCMAP_BINARY_DIR "/daemon/occmapd";
+const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
+
+bool waitForError(ChildProcess& process, const std::string& text, std::chrono::seconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    if (process.err().find(text) != std::string::npos) return true;
+    std::this_thread::sleep_for(20ms);
+  }
+  return false;
+}
+
+TEST(OccmapControl, MakeKeyWritesAPrivateKeyAndNeverReplacesOne) {
+  TemporaryFolder folder;
+  const std::string key = (folder / "control.key").string();
+  auto result = runCommand({kOccmap, "control", "--make-key", key});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("chown occmap"), std::string::npos) << result.out;
+  struct stat info {};
+  ASSERT_EQ(::stat(key.c_str(), &info), 0);
+  EXPECT_EQ(info.st_mode & 0777, 0600u);
+  result = runCommand({kOccmap, "control", "--make-key", key});
+  EXPECT_EQ(result.exit_code, 2) << "an existing key must not be replaced";
+  result = runCommand({kOccmap, "control", "--help"});
+  EXPECT_EQ(result.exit_code, 0);
+  for (const char* words : {"set-threshold", "recapture-background", "--make-key", "--key-file",
+                            "HMAC", "replay window", "SIGHUP", "docs/control.md", "Exit codes"}) {
+    EXPECT_NE(result.out.find(words), std::string::npos) << "--help does not mention " << words;
+  }
+  result = runCommand({kOccmap, "control", "--key-file", key});
+  EXPECT_EQ(result.exit_code, 2) << "no command given";
+}
+
+TEST(OccmapControl, SetsAThresholdThatStatusShowsAndAReloadPutsBack) {
+  if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+    GTEST_SKIP() << problem;
+  }
+  TemporaryFolder folder;
+  const std::string key = (folder / "control.key").string();
+  ASSERT_EQ(runCommand({kOccmap, "control", "--make-key", key}).exit_code, 0);
+  const auto config = folder.write(
+      "room.yaml", testing::simRoomConfig("udpm://239.255.76.67:7667?ttl=0") +
+                       "control: {enabled: true, key_file: control.key, replay_window_s: 10}\n");
+  ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "occmapd");
+  ASSERT_TRUE(waitForError(daemon, "ready:", 30s)) << daemon.err();
+
+  auto result = runCommand({kOccmap, "control", "--key-file", key, "set-threshold", "c0", "35"});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  EXPECT_NE(result.out.find("done: camera c0: threshold 35 (was 20)"), std::string::npos)
+      << result.out;
+  result = runCommand({kOccmap, "status", "--json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("\"camera_threshold\":[35,20,20,20]"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("\"control_accepted\":1"), std::string::npos) << result.out;
+
+  // Refused, with the reason, exit 1; options after the command work too.
+  result = runCommand({kOccmap, "control", "set-threshold", "c7", "35", "--key-file", key});
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.err.find("refused: no camera named \"c7\""), std::string::npos) << result.err;
+
+  // Another key: the daemon answers nothing, so the client has no result (exit 3).
+  const std::string other = (folder / "other.key").string();
+  ASSERT_EQ(runCommand({kOccmap, "control", "--make-key", other}).exit_code, 0);
+  result = runCommand(
+      {kOccmap, "control", "--key-file", other, "--timeout", "1", "set-threshold", "c0", "99"});
+  EXPECT_EQ(result.exit_code, 3);
+  EXPECT_NE(result.err.find("no reply"), std::string::npos) << result.err;
+  result = runCommand({kOccmap, "status"});
+  EXPECT_NE(result.out.find("1 bad mac"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("c0: threshold 35, background from the config"), std::string::npos)
+      << result.out;
+
+  // A reload goes back to the config's values.
+  daemon.signal(SIGHUP);
+  ASSERT_TRUE(waitForError(daemon, "reloaded", 30s)) << daemon.err();
+  bool back = false;
+  for (int attempt = 0; attempt < 20 && !back; ++attempt) {
+    result = runCommand({kOccmap, "status", "--json"});
+    back = result.out.find("\"camera_threshold\":[20,20,20,20]") != std::string::npos;
+    if (!back) std::this_thread::sleep_for(200ms);
+  }
+  EXPECT_TRUE(back) << "after SIGHUP the thresholds should be the config's: " << result.out;
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.waitExit(5s), 0) << daemon.err();
+}
+
+}  // namespace
+}  // namespace occmap
