@@ -48,6 +48,7 @@ bool fuzzMapFrame(Input input);           // map_frame: map_frame_t, read by occ
 bool fuzzStatus(Input input);             // status: status_t, read by occmap status
 bool fuzzControlRequest(Input input);     // control_request: control_request_t, read by occmapd
 bool fuzzControlStatus(Input input);      // control_status: control_status_t, read by occmap status
+bool fuzzControlReply(Input input);       // control_reply: control_reply_t, read by occmap control
 
 // The key the control_request seeds are signed with (fuzz_make_seeds): bytes 0, 1, ..., 31. Not
 // a secret: it exists so that fuzzing starts from requests whose mac holds.
@@ -75,6 +76,7 @@ inline constexpr Target kTargets[] = {
     {"status", fuzzStatus},
     {"control_request", fuzzControlRequest},
     {"control_status", fuzzControlStatus},
+    {"control_reply", fuzzControlReply},
 };
 
 }  // namespace occmap::fuzz

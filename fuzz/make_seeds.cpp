@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include <occmap/control_reply_t.hpp>
 #include <occmap/control_request_t.hpp>
 #include <occmap/control_status_t.hpp>
 #include <occmap/status_request_t.hpp>
@@ -165,6 +166,20 @@ int main(int argc, char** argv) {
   control.value = 50;
   write(corpus / "control_request" / "recapture-background.bin",
         occmap::encodeControlRequest(occmap::fuzz::controlFuzzKey(), control));
+
+  // Replies as occmapd signs them, under the same key.
+  occmap::control_reply_t reply{};
+  reply.utime = 1'700'000'000'000'123;
+  reply.request_id = 0x0123'4567'89ab'cdef;
+  reply.outcome = occmap::control_reply_t::OUTCOME_DONE;
+  reply.message = "c0: threshold 20 -> 35";
+  std::vector<std::uint8_t> reply_bytes;
+  occmap::encodeControlReply(occmap::fuzz::controlFuzzKey(), reply, reply_bytes);
+  write(corpus / "control_reply" / "done-threshold.bin", reply_bytes);
+  reply.outcome = occmap::control_reply_t::OUTCOME_STARTED;
+  reply.message = "door-camera: the median of the next 50 frames";
+  occmap::encodeControlReply(occmap::fuzz::controlFuzzKey(), reply, reply_bytes);
+  write(corpus / "control_reply" / "started-recapture.bin", reply_bytes);
 
   writeMap(corpus / "map_frame" / "raw-8x6-2-cameras.bin", {-1.0, -1.5, 0.25, 8, 6}, {"c0", "c1"},
            occmap::MapEncoding::kRaw);
