@@ -138,23 +138,10 @@ void encodeControlReply(const ControlKey& key, const occmap::control_reply_t& re
 std::optional<occmap::control_reply_t> decodeControlReply(const ControlKey& key,
                                                           const std::uint8_t* data,
                                                           std::size_t size, std::string* why) {
-  auto refuse = [why](const char* reason) -> std::optional<occmap::control_reply_t> {
-    if (why != nullptr) *why = reason;
-    return std::nullopt;
-  };
-  if (data == nullptr) return refuse("no data");
-  if (size > static_cast<std::size_t>(INT_MAX)) return refuse("larger than LCM allows");
-  if (const char* error = replyLayoutError(data, size); *error != '\0') return refuse(error);
-  if (!controlMacMatches(key, data, size)) return refuse("its mac does not match under the key");
-  occmap::control_reply_t reply{};
-  try {
-    if (reply.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
-      return refuse("LCM's decoder did not take the whole message");
-    }
-  } catch (const std::exception&) {
-    return refuse("out of memory while decoding");
-  }
-  return reply;
+  return decodeWalked<occmap::control_reply_t>(
+      data, size, why, replyLayoutError, [&key](const std::uint8_t* bytes, std::size_t length) {
+        return controlMacMatches(key, bytes, length) ? "" : "its mac does not match under the key";
+      });
 }
 
 }  // namespace occmap

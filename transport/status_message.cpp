@@ -99,44 +99,12 @@ std::optional<std::int64_t> decodeStatusRequest(const std::uint8_t* data, std::s
 
 std::optional<occmap::status_t> decodeStatus(const std::uint8_t* data, std::size_t size,
                                              std::string* error) {
-  auto refuse = [error](const char* why) -> std::optional<occmap::status_t> {
-    if (error != nullptr) *error = why;
-    return std::nullopt;
-  };
-  if (data == nullptr) return refuse("no data");
-  if (size > static_cast<std::size_t>(INT_MAX)) return refuse("larger than LCM allows");
-  if (const char* why = statusLayoutError(data, size); *why != '\0') return refuse(why);
-  occmap::status_t status{};
-  try {
-    // Every count agrees with `size`, so this allocates no more than the message holds.
-    if (status.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
-      return refuse("LCM's decoder did not take the whole message");
-    }
-  } catch (const std::exception&) {
-    return refuse("out of memory while decoding");
-  }
-  return status;
+  return decodeWalked<occmap::status_t>(data, size, error, statusLayoutError);
 }
 
 std::optional<occmap::control_status_t> decodeControlStatus(const std::uint8_t* data,
                                                             std::size_t size, std::string* error) {
-  auto refuse = [error](const char* why) -> std::optional<occmap::control_status_t> {
-    if (error != nullptr) *error = why;
-    return std::nullopt;
-  };
-  if (data == nullptr) return refuse("no data");
-  if (size > static_cast<std::size_t>(INT_MAX)) return refuse("larger than LCM allows");
-  if (const char* why = controlStatusLayoutError(data, size); *why != '\0') return refuse(why);
-  occmap::control_status_t status{};
-  try {
-    // Every count agrees with `size`, so this allocates no more than the message holds.
-    if (status.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
-      return refuse("LCM's decoder did not take the whole message");
-    }
-  } catch (const std::exception&) {
-    return refuse("out of memory while decoding");
-  }
-  return status;
+  return decodeWalked<occmap::control_status_t>(data, size, error, controlStatusLayoutError);
 }
 
 }  // namespace occmap

@@ -4,9 +4,13 @@
 // the bytes received before LCM's generated decoder (which trusts the counts) sees it.
 
 #include <bit>
+#include <climits>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <exception>
+#include <optional>
+#include <string>
 #include <type_traits>
 
 namespace occmap {
@@ -65,5 +69,34 @@ class WireReader {
   std::size_t size_;
   std::size_t position_ = 0;
 };
+
+// A message from the network decoded by LCM's generated decoder, but only once `problems` (the
+// walk with a WireReader, then any further check such as a mac) have found nothing: each returns
+// "" or why the bytes are refused. Then every count agrees with `size`, so the decoder allocates
+// no more than the message holds. Nothing when refused, and `error`, if given, says why; no
+// exception leaves.
+template <typename Message, typename... Problems>
+std::optional<Message> decodeWalked(const std::uint8_t* data, std::size_t size, std::string* error,
+                                    Problems... problems) {
+  auto refuse = [error](const char* why) -> std::optional<Message> {
+    if (error != nullptr) *error = why;
+    return std::nullopt;
+  };
+  if (data == nullptr) return refuse("no data");
+  if (size > static_cast<std::size_t>(INT_MAX)) return refuse("larger than LCM allows");
+  const char* why = "";
+  // In order, stopping at the first problem.
+  (void)((*(why = problems(data, size)) == '\0') && ...);
+  if (*why != '\0') return refuse(why);
+  Message message{};
+  try {
+    if (message.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) {
+      return refuse("LCM's decoder did not take the whole message");
+    }
+  } catch (const std::exception&) {
+    return refuse("out of memory while decoding");
+  }
+  return message;
+}
 
 }  // namespace occmap
