@@ -145,6 +145,14 @@ std::string jsonNumber(double value) {
 
 std::string jsonNumber(std::int64_t value) { return format("%" PRId64, value); }
 
+// A JSON array of `values`, each written by `element`.
+template <typename Values, typename Element>
+std::string jsonArray(const Values& values, Element element) {
+  std::string array = "[";
+  for (const auto& value : values) array += (array.size() > 1 ? "," : "") + element(value);
+  return array + "]";
+}
+
 }  // namespace
 
 std::string terminalText(std::string_view text) {
@@ -300,19 +308,13 @@ std::string formatStatusJson(const occmap::status_t& s, const occmap::control_st
     j += ",\"control_stale\":" + jsonNumber(c.stale);
     j += ",\"control_refused\":" + jsonNumber(c.refused);
     j += ",\"control_accepted\":" + jsonNumber(c.accepted);
-    j += ",\"camera_name\":[";
-    for (std::size_t k = 0; k < c.camera_name.size(); ++k) {
-      j += (k > 0 ? "," : "") + jsonString(c.camera_name[k]);
-    }
-    j += "],\"camera_threshold\":[";
-    for (std::size_t k = 0; k < c.camera_threshold.size(); ++k) {
-      j += (k > 0 ? "," : "") + jsonNumber(std::int64_t{c.camera_threshold[k]});
-    }
-    j += "],\"camera_background_utime\":[";
-    for (std::size_t k = 0; k < c.camera_background_utime.size(); ++k) {
-      j += (k > 0 ? "," : "") + jsonNumber(c.camera_background_utime[k]);
-    }
-    j += "]";
+    j += ",\"camera_name\":" +
+         jsonArray(c.camera_name, [](const std::string& name) { return jsonString(name); });
+    j += ",\"camera_threshold\":" + jsonArray(c.camera_threshold, [](std::int32_t threshold) {
+           return jsonNumber(std::int64_t{threshold});
+         });
+    j += ",\"camera_background_utime\":" +
+         jsonArray(c.camera_background_utime, [](std::int64_t utime) { return jsonNumber(utime); });
   }
   return j + "}";
 }
