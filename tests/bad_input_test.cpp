@@ -28,6 +28,7 @@
 #include "notify_listener.h"
 #include "sim_room_config.h"
 #include "transport/map_codec.h"
+#include "tsai_xml.h"
 
 namespace occmap {
 namespace {
@@ -35,6 +36,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using testing::ChildProcess;
+using testing::kDownwardXml;
 using testing::NotifyListener;
 using testing::readWhole;
 using testing::runCommand;
@@ -43,16 +45,6 @@ using testing::writeText;
 
 const std::string kOccmapd = OCCMAP_BINARY_DIR "/daemon/occmapd";
 const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
-
-// A 100x100 camera 2000 mm above (0, 0) looking straight down: one pixel is 10 mm on the floor.
-// Line 4 is <Intrinsic>.
-constexpr const char* kDownwardXml = R"(<?xml version="1.0" encoding="UTF-8"?>
-<Camera name="down">
-  <Geometry width="100" height="100" ncx="100" nfx="100" dx="0.01" dy="0.01" dpx="0.01" dpy="0.01"/>
-  <Intrinsic focal="2.0" kappa1="0" cx="49.5" cy="49.5" sx="1"/>
-  <Extrinsic tx="0" ty="0" tz="2000" rx="3.141592653589793" ry="0" rz="0"/>
-</Camera>
-)";
 
 std::string replaced(std::string text, const std::string& from, const std::string& to) {
   const std::size_t at = text.find(from);

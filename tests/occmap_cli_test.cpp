@@ -13,25 +13,18 @@
 #include "core/carve_table.h"
 #include "core/reference_fusion.h"
 #include "daemon/calibration_file.h"
+#include "tsai_xml.h"
 
 namespace occmap {
 namespace {
 
+using testing::kDownwardXml;
 using testing::readWhole;
 using testing::runCommand;
 using testing::TemporaryFolder;
 using testing::writeText;
 
 const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
-
-// A 100x100 camera 2000 mm above (0, 0) looking straight down: one pixel is 10 mm on the floor.
-constexpr const char* kDownwardXml = R"(<?xml version="1.0" encoding="UTF-8"?>
-<Camera name="down">
-  <Geometry width="100" height="100" ncx="100" nfx="100" dx="0.01" dy="0.01" dpx="0.01" dpy="0.01"/>
-  <Intrinsic focal="2.0" kappa1="0" cx="49.5" cy="49.5" sx="1"/>
-  <Extrinsic tx="0" ty="0" tz="2000" rx="3.141592653589793" ry="0" rz="0"/>
-</Camera>
-)";
 
 double jsonNumber(const std::string& json, const std::string& key) {
   const std::string label = "\"" + key + "\":";
