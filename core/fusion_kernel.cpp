@@ -18,10 +18,7 @@ static_assert(static_cast<int>(CellState::kFree) == 0 &&
               static_cast<int>(CellState::kOccupied) == 1 &&
               static_cast<int>(CellState::kUnseen) == 2);
 
-// Cells a one-pixel entry can name (the bit position takes the low 6 bits).
-constexpr std::size_t kOnePixelCells = std::size_t{1} << 26;
-
-enum List { kOne, kSeveral, kSpread };
+enum List { kOne, kSeveral, kTwoTiles, kSpread, kLists };
 
 // One entry of a camera's tile lists before they are laid out: a cell under a tile.
 struct Entry {
@@ -31,20 +28,24 @@ struct Entry {
   List list;
   std::uint32_t piece_first;  // kSpread: the cell's (tile, pixels) pieces
   std::uint32_t piece_count;
+  std::uint32_t other_tile;  // kTwoTiles: the other tile and the cell's pixels there
+  std::uint64_t other_pixels;
 };
 
-// Fills a list's `first` from per-tile counts over the active tiles; returns the entry count and
-// leaves in `next` where each tile's entries start.
+// Fills in one list's starts (`starts` has a record per tile of `tiles`, + 1) from per-tile
+// counts; returns the entry count and leaves in `next` where each tile's entries start.
 std::uint32_t layOut(const std::vector<std::uint32_t>& tiles,
-                     const std::vector<std::uint32_t>& count, std::vector<std::uint32_t>& first,
+                     const std::vector<std::uint32_t>& count,
+                     std::uint32_t fusion_steps::TileStart::*list,
+                     std::vector<fusion_steps::TileStart>& starts,
                      std::vector<std::uint32_t>& next) {
   std::uint32_t entries = 0;
-  for (const std::uint32_t tile : tiles) {
-    first.push_back(entries);
-    next[tile] = entries;
-    entries += count[tile];
+  for (std::size_t i = 0; i < tiles.size(); ++i) {
+    starts[i].*list = entries;
+    next[tiles[i]] = entries;
+    entries += count[tiles[i]];
   }
-  first.push_back(entries);
+  starts[tiles.size()].*list = entries;
   return entries;
 }
 
@@ -101,6 +102,7 @@ FusionKernel::FusionKernel(std::span<const CarveTable> tables, KernelPath path) 
       throw std::invalid_argument("carve tables of different maps");
     }
     cameras_.push_back(turnAround(table));
+    changed_tiles_.resize(std::max(changed_tiles_.size(), cameras_.back().tiles.size()));
   }
 }
 
@@ -135,55 +137,93 @@ FusionKernel::CameraTable FusionKernel::turnAround(const CarveTable& table) {
       }
     }
     const auto c = static_cast<std::uint32_t>(cell);
+    if (camera.rule == CarveRule::kAnyPixel && groups.size() == 2) {
+      entries.push_back({groups[0].first, c, groups[0].second, kTwoTiles, 0, 0, groups[1].first,
+                         groups[1].second});
+      continue;
+    }
     if (camera.rule == CarveRule::kAnyPixel && groups.size() > 1) {
       // Floor carving blocks the cell only if all its pixels changed: one look at all its tiles,
       // from the first, is enough (if that one has no changed pixel, the cell is not blocked).
       entries.push_back({groups.front().first, c, 0, kSpread,
                          static_cast<std::uint32_t>(pieces.size()),
-                         static_cast<std::uint32_t>(groups.size())});
+                         static_cast<std::uint32_t>(groups.size()), 0, 0});
       pieces.insert(pieces.end(), groups.begin(), groups.end());
       continue;
     }
     for (const auto& [tile, bits] : groups) {
-      const bool one = std::popcount(bits) == 1 && cell < kOnePixelCells;
-      entries.push_back({tile, c, bits, one ? kOne : kSeveral, 0, 0});
+      const bool one = std::popcount(bits) == 1;
+      entries.push_back({tile, c, bits, one ? kOne : kSeveral, 0, 0, 0, 0});
     }
   }
   // Then tile -> cells, by counting.
-  std::vector<std::vector<std::uint32_t>> count(3, std::vector<std::uint32_t>(tile_count, 0));
+  std::vector<std::vector<std::uint32_t>> count(kLists, std::vector<std::uint32_t>(tile_count, 0));
   for (const Entry& entry : entries) ++count[entry.list][entry.tile];
   const std::size_t strips_across = (static_cast<std::size_t>(table.imageWidth()) + 63) / 64;
   camera.needed_strips.assign(strips_across * tilesDown(table.imageHeight()), 0);
   for (std::size_t tile = 0; tile < tile_count; ++tile) {
-    if (count[kOne][tile] + count[kSeveral][tile] + count[kSpread][tile] > 0) {
+    if (count[kOne][tile] + count[kSeveral][tile] + count[kTwoTiles][tile] + count[kSpread][tile] >
+        0) {
       camera.tiles.push_back(static_cast<std::uint32_t>(tile));
       camera.needed_strips[tile / across * strips_across + tile % across / 8] = 1;
     }
   }
-  std::vector<std::vector<std::uint32_t>> next(3, std::vector<std::uint32_t>(tile_count, 0));
+  std::vector<std::vector<std::uint32_t>> next(kLists, std::vector<std::uint32_t>(tile_count, 0));
+  camera.starts.resize(camera.tiles.size() + 1);
   // The vector code reads whole vectors of a list past a tile's end: padding keeps that in the
   // array.
   constexpr std::size_t kPadding = fusion_steps::kListPadding;
-  camera.one.cell_and_bit.resize(layOut(camera.tiles, count[kOne], camera.one.first, next[kOne]) +
-                                 kPadding);
   const std::uint32_t several =
-      layOut(camera.tiles, count[kSeveral], camera.several.first, next[kSeveral]);
+      layOut(camera.tiles, count[kSeveral], &fusion_steps::TileStart::several, camera.starts,
+             next[kSeveral]);
   camera.several.pixels.resize(several + kPadding);
   camera.several.cells.resize(several + kPadding);
-  const std::uint32_t spread =
-      layOut(camera.tiles, count[kSpread], camera.spread.first, next[kSpread]);
+  const std::uint32_t two = layOut(camera.tiles, count[kTwoTiles], &fusion_steps::TileStart::two,
+                                   camera.starts, next[kTwoTiles]);
+  camera.two.cells.resize(two);
+  camera.two.other_tiles.resize(two);
+  camera.two.pixels.resize(std::size_t{two} * 2);
+  const std::uint32_t spread = layOut(
+      camera.tiles, count[kSpread], &fusion_steps::TileStart::spread, camera.starts, next[kSpread]);
   camera.spread.cells.resize(spread);
   std::vector<const Entry*> spread_entries(spread);
+  // One-pixel cells, per tile in cell order, into windows of consecutive cells: each window starts
+  // at the first cell the ones before it left.
+  std::vector<std::vector<const Entry*>> one_pixel(tile_count);
   for (const Entry& entry : entries) {
+    if (entry.list == kOne) one_pixel[entry.tile].push_back(&entry);
+  }
+  for (std::size_t i = 0; i < camera.tiles.size(); ++i) {
+    camera.starts[i].one = static_cast<std::uint32_t>(camera.one.window_cells.size());
+    const std::vector<const Entry*>& in_tile = one_pixel[camera.tiles[i]];
+    for (std::size_t e = 0; e < in_tile.size();) {
+      const std::uint32_t start = in_tile[e]->cell;
+      camera.one.window_cells.push_back(start);
+      const std::size_t window = camera.one.pixels.size();
+      camera.one.pixels.resize(window + fusion_steps::kWindowCells, fusion_steps::kNoCell);
+      for (; e < in_tile.size() && in_tile[e]->cell - start < fusion_steps::kWindowCells; ++e) {
+        camera.one.pixels[window + in_tile[e]->cell - start] =
+            fusion_steps::onePixelCode(static_cast<unsigned>(std::countr_zero(in_tile[e]->pixels)));
+      }
+    }
+  }
+  camera.starts.back().one = static_cast<std::uint32_t>(camera.one.window_cells.size());
+  for (const Entry& entry : entries) {
+    if (entry.list == kOne) continue;
     const std::uint32_t at = next[entry.list][entry.tile]++;
     switch (entry.list) {
       case kOne:
-        camera.one.cell_and_bit[at] =
-            entry.cell << 6 | static_cast<std::uint32_t>(std::countr_zero(entry.pixels));
+      case kLists:
         break;
       case kSeveral:
         camera.several.pixels[at] = entry.pixels;
         camera.several.cells[at] = entry.cell;
+        break;
+      case kTwoTiles:
+        camera.two.cells[at] = entry.cell;
+        camera.two.other_tiles[at] = entry.other_tile;
+        camera.two.pixels[std::size_t{at} * 2] = entry.pixels;
+        camera.two.pixels[std::size_t{at} * 2 + 1] = entry.other_pixels;
         break;
       case kSpread:
         camera.spread.cells[at] = entry.cell;
@@ -216,12 +256,14 @@ std::size_t FusionKernel::tableBytes() const {
   for (const CameraTable& camera : cameras_) {
     add(camera.needed_strips);
     add(camera.tiles);
-    add(camera.one.first);
-    add(camera.one.cell_and_bit);
-    add(camera.several.first);
+    add(camera.starts);
+    add(camera.one.window_cells);
+    add(camera.one.pixels);
     add(camera.several.pixels);
     add(camera.several.cells);
-    add(camera.spread.first);
+    add(camera.two.cells);
+    add(camera.two.other_tiles);
+    add(camera.two.pixels);
     add(camera.spread.cells);
     add(camera.spread.pieces_first);
     add(camera.spread.piece_tiles);
@@ -244,19 +286,21 @@ void FusionKernel::blockCells(std::size_t k, const std::uint8_t* changed) {
   const fusion_steps::TileLists lists{camera.rule == CarveRule::kEveryPixel,
                                       camera.tiles.data(),
                                       camera.tiles.size(),
-                                      camera.one.first.data(),
-                                      camera.one.cell_and_bit.data(),
-                                      camera.several.first.data(),
+                                      camera.starts.data(),
+                                      camera.one.window_cells.data(),
+                                      camera.one.pixels.data(),
                                       camera.several.pixels.data(),
                                       camera.several.cells.data(),
-                                      camera.spread.first.data(),
+                                      camera.two.cells.data(),
+                                      camera.two.other_tiles.data(),
+                                      camera.two.pixels.data(),
                                       camera.spread.cells.data(),
                                       camera.spread.pieces_first.data(),
                                       camera.spread.piece_tiles.data(),
                                       camera.spread.piece_pixels.data()};
   const std::uint8_t stamp = nextStamp();
   const fusion_steps::Blocking blocking{blocked_.data(), static_cast<std::uint32_t>(cell_count_),
-                                        stamp};
+                                        stamp, changed_tiles_.data()};
   (path_ == KernelPath::kSimd ? fusion_steps::blockCells : fusion_steps::blockCellsScalar)(
       lists, changed, blocking);
 }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/carve_table.h"
+#include "core/fusion_steps.h"
 #include "core/image.h"
 #include "core/map_geometry.h"
 
@@ -67,23 +68,27 @@ class FusionKernel {
   std::size_t tableBytes() const;
 
  private:
-  // A tile's cells come in three lists, so that the common case costs least: cells decided by one
+  // A tile's cells come in four lists, so that the common case costs least: cells decided by one
   // pixel of the tile (a bit position), cells with several pixels in it (a 64-bit mask), and, in
-  // floor mode only, cells with pixels in other tiles too ("spread"), listed once, under their
-  // first tile, with all their tiles and pixels. (Column mode needs no third list: there any one
-  // tile can block the cell alone.) Each list in cell order; list L of the i-th tile of `tiles` is
-  // [L.first[i], L.first[i + 1]).
-  struct OnePixel {
-    std::vector<std::uint32_t> first;
-    std::vector<std::uint32_t> cell_and_bit;  // cell << 6 | the pixel's bit in the tile
+  // floor mode only, cells with pixels in other tiles too, listed once, under their first tile:
+  // those with pixels in exactly two tiles (most of them) with both masks, the rest ("spread")
+  // with all their tiles and pixels. (Column mode needs neither: there any one tile can block the
+  // cell alone.) Each list in cell order; `starts` says where the i-th tile of `tiles` has its
+  // entries in each.
+  struct OnePixel {  // in windows of consecutive cells (fusion_steps::TileLists)
+    std::vector<std::uint32_t> window_cells;  // each window's first cell
+    std::vector<std::uint8_t> pixels;         // kWindowCells codes per window
   };
   struct SeveralPixels {
-    std::vector<std::uint32_t> first;
     std::vector<std::uint64_t> pixels;  // the cell's pixels in the tile, as tile bits
     std::vector<std::uint32_t> cells;
   };
+  struct TwoTiles {  // floor-mode cells with pixels in exactly two tiles, the common spread case
+    std::vector<std::uint32_t> cells;
+    std::vector<std::uint32_t> other_tiles;
+    std::vector<std::uint64_t> pixels;  // per entry two: in this tile, in the other
+  };
   struct SpreadCells {
-    std::vector<std::uint32_t> first;
     std::vector<std::uint32_t> cells;
     std::vector<std::uint32_t> pieces_first;  // per entry + 1: its pieces
     std::vector<std::uint32_t> piece_tiles;
@@ -96,8 +101,10 @@ class FusionKernel {
     // Per row of tiles, per 64-pixel strip of it: whether some tile of it decides a cell.
     std::vector<std::uint8_t> needed_strips;
     std::vector<std::uint32_t> tiles;  // tiles with pixels that decide some cell, ascending
+    std::vector<fusion_steps::TileStart> starts;  // per tile of `tiles`, + 1
     OnePixel one;
     SeveralPixels several;
+    TwoTiles two;
     SpreadCells spread;
     std::vector<std::uint64_t> seen;  // bit per cell: the camera sees it
     std::size_t seen_begin = 0;       // words of `seen` with a bit set: [seen_begin, seen_end)
@@ -112,8 +119,9 @@ class FusionKernel {
   std::vector<CameraTable> cameras_;
   std::vector<std::uint8_t> blocked_;  // per cell (+ a sink): stamp of the camera that blocked it
   std::uint8_t stamp_ = 0;
-  std::vector<std::uint64_t> free_;  // bit per cell, this frame set
-  std::vector<std::uint64_t> seen_;  // bit per cell: some live camera sees it
+  std::vector<std::uint32_t> changed_tiles_;  // blockCells' scratch: the most tiles of any camera
+  std::vector<std::uint64_t> free_;           // bit per cell, this frame set
+  std::vector<std::uint64_t> seen_;           // bit per cell: some live camera sees it
 };
 
 // The name of the Highway target the SIMD path dispatches to on this CPU ("AVX3", "AVX2", ...).
