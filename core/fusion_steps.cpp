@@ -203,7 +203,7 @@ void blockCellsVector(const TileLists& lists_given, const std::uint8_t* HWY_REST
   // visited while, in floor mode, the lists of the one two visits ahead are fetched. (Floor lists
   // are short, a few cache lines a tile, and begin where the hardware cannot guess: 5 % faster in
   // the benchmark's floor fusion. Column-mode lists are long, and there the same prefetch made
-  // the large fusion 15 % slower.)
+  // the large fusion 15-20 % slower.)
   std::uint32_t* HWY_RESTRICT visit = blocking.changed_tiles;
   std::size_t visits = 0;
   for (std::size_t i = 0; i < lists.tile_count; ++i) {
