@@ -134,6 +134,14 @@ struct Site {
     writeText(folder / "notes.png", "this is not a picture\n");
   }
   std::string path(const std::string& name) const { return (folder / name).string(); }
+  // mixed/frame1-4.png: a good image, one of another size, a corrupt one, a good one.
+  void makeMixedImages() const {
+    fs::create_directories(folder / "mixed");
+    fs::copy_file(folder / "frames/frame1.png", folder / "mixed/frame1.png");
+    fs::copy_file(folder / "small.png", folder / "mixed/frame2.png");
+    fs::copy_file(folder / "truncated.png", folder / "mixed/frame3.png");
+    fs::copy_file(folder / "frames/frame3.png", folder / "mixed/frame4.png");
+  }
 };
 
 // ----------------------------------------------------------------------------------------------
@@ -198,11 +206,7 @@ TEST(BadImages, WholeJpegsOfEveryKindStillRead) {
 // before, it read the same bad file again and again and the camera stopped for good.
 TEST(BadFrames, AFilesSourceSkipsABadImageAndGoesOnWithTheNext) {
   const Site site;
-  fs::create_directories(site.folder / "mixed");
-  fs::copy_file(site.folder / "frames/frame1.png", site.folder / "mixed/frame1.png");
-  fs::copy_file(site.folder / "small.png", site.folder / "mixed/frame2.png");
-  fs::copy_file(site.folder / "truncated.png", site.folder / "mixed/frame3.png");
-  fs::copy_file(site.folder / "frames/frame3.png", site.folder / "mixed/frame4.png");
+  site.makeMixedImages();
   std::string error;
   const auto source = FilesSource::open(site.path("mixed/*.png"), error);
   ASSERT_NE(source, nullptr) << error;
@@ -481,11 +485,7 @@ TEST(BadFrames, FramesOfAnotherSizeAndDeviceErrorsAreDroppedAndCountedInTheStatu
 // daemon drops and counts them, says so in the log, and streams on from the good ones.
 TEST(BadFrames, TheDaemonDropsBadImagesFromAFilesSourceCountsThemAndStreamsOn) {
   const Site site;
-  fs::create_directories(site.folder / "mixed");
-  fs::copy_file(site.folder / "frames/frame1.png", site.folder / "mixed/frame1.png");
-  fs::copy_file(site.folder / "small.png", site.folder / "mixed/frame2.png");
-  fs::copy_file(site.folder / "truncated.png", site.folder / "mixed/frame3.png");
-  fs::copy_file(site.folder / "frames/frame3.png", site.folder / "mixed/frame4.png");
+  site.makeMixedImages();
 
   // In process first, where the status can be read field by field.
   const Config config = parseConfig(filesConfig("    fps: 60\n", "mixed"), site.path("mixed.yaml"));
