@@ -12,6 +12,8 @@
 #include <signal.h>
 #include <sys/resource.h>
 
+#include "base/clock.h"
+
 namespace occmap::bench {
 namespace {
 

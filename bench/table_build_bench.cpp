@@ -17,10 +17,10 @@
 
 #include <benchmark/benchmark.h>
 
+#include "config/config.h"
+#include "config/rig.h"
 #include "core/carve_table.h"
 #include "core/fusion_kernel.h"
-#include "daemon/config.h"
-#include "daemon/rig.h"
 
 namespace occmap::bench {
 namespace {

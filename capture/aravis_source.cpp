@@ -29,6 +29,7 @@
 #include <sys/types.h>
 #include <time.h>
 
+#include "base/clock.h"
 #include "capture/live_source.h"
 
 // ThreadSanitizer builds (GCC, clang): see "ThreadSanitizer and Aravis's buffer queues" below.

@@ -6,6 +6,7 @@
 
 #include <glob.h>
 
+#include "base/clock.h"
 #include "capture/image_file.h"
 #include "capture/source_spec.h"
 

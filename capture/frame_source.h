@@ -21,7 +21,8 @@ struct Frame {
 // What a camera's transport counts (GigE Vision / USB3 Vision streams, V4L2). Sources keep these
 // in atomics: the daemon's LCM thread reads them while the capture thread runs.
 struct TransportCounters {
-  std::int64_t frames_incomplete = 0;  // arrived damaged (packets missing, V4L2_BUF_FLAG_ERROR), dropped
+  std::int64_t frames_incomplete =
+      0;  // arrived damaged (packets missing, V4L2_BUF_FLAG_ERROR), dropped
   std::int64_t missing_packets = 0;
   std::int64_t resent_packets = 0;
   std::int64_t underruns = 0;  // frames lost because the source had no free buffer
@@ -82,10 +83,5 @@ class FrameSource {
  private:
   std::string error_;
 };
-
-// The host's wall clock in microseconds since the Unix epoch, as LCM's utime has it.
-std::int64_t hostTimeMicroseconds();
-// CLOCK_MONOTONIC in nanoseconds: for waits and ages, which must not jump with the wall clock.
-std::int64_t monotonicNanoseconds();
 
 }  // namespace occmap

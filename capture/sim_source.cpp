@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "base/clock.h"
+
 namespace occmap {
 
 SimSource::SimSource(std::shared_ptr<const sim::Scene> scene, Camera camera, int camera_index,

@@ -12,13 +12,14 @@
 #include <sys/signalfd.h>
 #include <unistd.h>
 
-#include "daemon/config.h"
-#include "daemon/control_key.h"
-#include "daemon/exit_codes.h"
-#include "daemon/input_error.h"
-#include "daemon/log.h"
+#include "base/log.h"
+#include "config/config.h"
+#include "config/control_key_file.h"
+#include "config/exit_codes.h"
+#include "config/input_error.h"
+#include "config/prepared_rig.h"
+#include "config/rig.h"
 #include "daemon/pipeline.h"
-#include "daemon/rig.h"
 #include "daemon/service_notifier.h"
 
 namespace occmap {
@@ -29,14 +30,6 @@ constexpr const char* kDefaultConfig = "/etc/occmap/occmapd.yaml";
 struct Options {
   std::string config = kDefaultConfig;
   bool check = false;
-};
-
-// Everything a config makes before it can run: its rig and carve tables. Building this can take
-// seconds (column tables on large maps); on reload the old pipeline keeps running meanwhile, and
-// the live cameras are left closed (`open_live_cameras`) until it has stopped and let go of them.
-struct Prepared {
-  Rig rig;
-  std::vector<CarveTable> tables;
 };
 
 RigOptions rigOptions(bool open_live_cameras) {
@@ -57,19 +50,21 @@ void checkControlKey(const Config& config) {
                        {config.file.string(), config.control.key_file_line, "control.key_file"});
 }
 
-Prepared prepare(const Config& config, bool open_live_cameras) {
+// Everything a config makes before it can run: its rig and carve tables. On reload the old
+// pipeline keeps running meanwhile, and the live cameras are left closed (`open_live_cameras`)
+// until it has stopped and let go of them.
+PreparedRig prepare(const Config& config, bool open_live_cameras) {
   checkControlKey(config);
-  Rig rig = Rig::open(config, rigOptions(open_live_cameras));
-  std::vector<CarveTable> tables = rig.buildTables(config.fusion.column_height_m);
-  for (const std::string& warning : rig.warnings())
+  PreparedRig prepared = prepareRig(config, rigOptions(open_live_cameras));
+  for (const std::string& warning : prepared.rig.warnings())
     logLine(LogLevel::kWarning, "%s", warning.c_str());
   std::size_t cells = 0;
-  for (const CarveTable& table : tables) cells += table.entries();
+  for (const CarveTable& table : prepared.tables) cells += table.entries();
   logLine(LogLevel::kInfo,
           "%s: %zu cameras, map %dx%d of %.3g m cells, column %.3g m, %zu table entries",
-          config.file.c_str(), rig.cameras().size(), config.map.width, config.map.height,
-          config.map.cell_size_m, config.fusion.column_height_m, cells);
-  return {std::move(rig), std::move(tables)};
+          config.file.c_str(), prepared.rig.cameras().size(), config.map.width, config.map.height,
+          config.map.cell_size_m, prepared.column_height_m, cells);
+  return prepared;
 }
 
 // SIGHUP: the new config replaces the running one only once it is wholly valid. Its cameras are
@@ -79,7 +74,7 @@ Prepared prepare(const Config& config, bool open_live_cameras) {
 // when even the old config cannot be restored does `pipeline` end up empty.
 void reload(std::unique_ptr<Pipeline>& pipeline, const std::string& file,
             const PipelineOptions& options) {
-  Prepared next = prepare(loadConfig(file), false);  // InputError: the old one runs on
+  PreparedRig next = prepare(loadConfig(file), false);  // InputError: the old one runs on
   pipeline->stop();
   Rig old_rig = pipeline->takeRig();
   std::vector<CarveTable> old_tables = pipeline->takeTables();
@@ -143,7 +138,7 @@ int run(const Options& options) {
 
   ServiceNotifier notifier;
   const PipelineOptions pipeline_options = optionsFromEnvironment(start);
-  Prepared prepared = prepare(loadConfig(options.config), true);
+  PreparedRig prepared = prepare(loadConfig(options.config), true);
   auto pipeline = std::make_unique<Pipeline>(std::move(prepared.rig), std::move(prepared.tables),
                                              pipeline_options);
   pipeline->start();

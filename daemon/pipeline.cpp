@@ -13,6 +13,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "base/clock.h"
 #include "transport/control_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
@@ -22,13 +23,6 @@ namespace occmap {
 namespace {
 
 std::int64_t toNs(std::chrono::nanoseconds d) { return d.count(); }
-
-void sleepUntil(std::int64_t monotonic_ns) {
-  const timespec until{static_cast<time_t>(monotonic_ns / 1'000'000'000LL),
-                       static_cast<long>(monotonic_ns % 1'000'000'000LL)};
-  while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) == EINTR) {
-  }
-}
 
 void drainEventfd(int fd) {
   std::uint64_t count = 0;

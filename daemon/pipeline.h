@@ -14,14 +14,14 @@
 #include <utility>
 #include <vector>
 
+#include "base/log.h"
+#include "config/rig.h"
 #include "core/carve_table.h"
 #include "core/fusion_kernel.h"
 #include "core/map_frame.h"
 #include "core/spsc_ring.h"
 #include "core/triple_buffer.h"
-#include "daemon/log.h"
 #include "daemon/remote_control.h"
-#include "daemon/rig.h"
 
 namespace occmap {
 

@@ -13,11 +13,12 @@
 #include <sys/eventfd.h>
 #include <unistd.h>
 
+#include "base/clock.h"
+#include "base/log.h"
 #include "capture/frame_source.h"
 #include "capture/image_file.h"
+#include "config/control_key_file.h"
 #include "core/background_median.h"
-#include "daemon/control_key.h"
-#include "daemon/log.h"
 #include "transport/lcm_bus.h"
 
 namespace occmap {

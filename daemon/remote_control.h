@@ -23,10 +23,10 @@
 
 #include <occmap/control_reply_t.hpp>
 
+#include "config/config.h"
 #include "core/background_handover.h"
 #include "core/frame_recorder.h"
 #include "core/image.h"
-#include "daemon/config.h"
 #include "transport/control_message.h"
 #include "transport/replay_window.h"
 

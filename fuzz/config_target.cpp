@@ -7,8 +7,8 @@
 #include <string>
 
 #include "capture/source_spec.h"
-#include "daemon/config.h"
-#include "daemon/input_error.h"
+#include "config/config.h"
+#include "config/input_error.h"
 #include "fuzz/fuzz_target.h"
 #include "transport/map_codec.h"
 

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <memory>
 
+#include "config/calibration_file.h"
+#include "config/input_error.h"
 #include "core/opencv_camera.h"
-#include "daemon/calibration_file.h"
-#include "daemon/input_error.h"
 #include "fuzz/calibration_use.h"
 #include "fuzz/fuzz_target.h"
 

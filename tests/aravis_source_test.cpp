@@ -16,11 +16,12 @@
 #include <arv.h>
 #include <gtest/gtest.h>
 
+#include "base/clock.h"
 #include "capture/image_file.h"
 #include "capture/live_source.h"
 #include "capture/sim/renderer.h"
-#include "daemon/config.h"
-#include "daemon/input_error.h"
+#include "config/config.h"
+#include "config/input_error.h"
 #include "daemon/pipeline.h"
 #include "sim_reference.h"
 #include "temporary_folder.h"

@@ -19,11 +19,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <unistd.h>
 
+#include "base/clock.h"
 #include "capture/files_source.h"
 #include "capture/image_file.h"
 #include "child_process.h"
-#include "daemon/calibration_file.h"
-#include "daemon/config.h"
+#include "config/calibration_file.h"
+#include "config/config.h"
 #include "daemon/pipeline.h"
 #include "notify_listener.h"
 #include "sim_room_config.h"

@@ -1,7 +1,7 @@
 // Calibration files as users bring them: a Tsai (ETISEO XML) or OpenCV (cv::FileStorage YAML) file
 // loads into exactly the camera it describes, and a broken one is refused with the file, line and
 // field named. The OpenCV loader is checked against OpenCV itself.
-#include "daemon/calibration_file.h"
+#include "config/calibration_file.h"
 
 #include <atomic>
 #include <cmath>
@@ -19,7 +19,7 @@
 #include <opencv2/core.hpp>
 #include <unistd.h>
 
-#include "daemon/input_error.h"
+#include "config/input_error.h"
 #include "temporary_folder.h"
 
 namespace occmap {

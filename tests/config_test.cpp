@@ -1,7 +1,7 @@
 // The config file as users write it: a valid one reads into the struct with paths taken from the
 // file's folder and defaults filled in; every mistake is refused with a message that names the
 // file, the line and the key, so that the user can go there and fix it.
-#include "daemon/config.h"
+#include "config/config.h"
 
 #include <atomic>
 #include <filesystem>
@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include "daemon/input_error.h"
+#include "config/input_error.h"
 #include "temporary_folder.h"
 
 namespace occmap {

@@ -10,9 +10,9 @@
 #include "capture/files_source.h"
 #include "capture/image_file.h"
 #include "command_runner.h"
+#include "config/calibration_file.h"
 #include "core/carve_table.h"
 #include "core/reference_fusion.h"
-#include "daemon/calibration_file.h"
 #include "tsai_xml.h"
 
 namespace occmap {

@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "allocation_counter.h"
-#include "daemon/config.h"
+#include "config/config.h"
 #include "sim_reference.h"
 #include "sim_room_config.h"
 #include "temporary_folder.h"

@@ -14,9 +14,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "config/calibration_file.h"
 #include "core/camera.h"
 #include "core/tsai_camera.h"
-#include "daemon/calibration_file.h"
 
 namespace occmap {
 namespace {

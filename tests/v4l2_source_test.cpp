@@ -18,6 +18,7 @@
 #include <dlfcn.h>
 #include <gtest/gtest.h>
 
+#include "base/clock.h"
 #include "capture/live_source.h"
 #include "child_process.h"
 #include "network_namespace.h"

@@ -6,11 +6,11 @@
 #include <thread>
 
 #include "capture/image_file.h"
+#include "config/config.h"
+#include "config/exit_codes.h"
+#include "config/input_error.h"
+#include "config/rig.h"
 #include "core/background_median.h"
-#include "daemon/config.h"
-#include "daemon/exit_codes.h"
-#include "daemon/input_error.h"
-#include "daemon/rig.h"
 #include "tools/commands.h"
 #include "tools/progress.h"
 

@@ -7,7 +7,7 @@
 namespace occmap::tools {
 
 // Each sub-command adds itself to the app and returns the function that runs it after parsing; the
-// function returns the process's exit code (daemon/exit_codes.h) or throws InputError (exit 2).
+// function returns the process's exit code (config/exit_codes.h) or throws InputError (exit 2).
 using Command = std::function<int()>;
 
 Command addProjectCommand(CLI::App& app);

@@ -10,9 +10,9 @@
 #include <occmap/control_reply_t.hpp>
 #include <occmap/control_request_t.hpp>
 
-#include "daemon/config.h"
-#include "daemon/control_key.h"
-#include "daemon/exit_codes.h"
+#include "config/config.h"
+#include "config/control_key_file.h"
+#include "config/exit_codes.h"
 #include "tools/commands.h"
 #include "transport/control_message.h"
 #include "transport/lcm_bus.h"

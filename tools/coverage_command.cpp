@@ -5,13 +5,13 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "daemon/config.h"
-#include "daemon/exit_codes.h"
-#include "daemon/input_error.h"
-#include "daemon/rig.h"
+#include "config/config.h"
+#include "config/exit_codes.h"
+#include "config/input_error.h"
+#include "config/rig.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
-#include "tools/prepared_rig.h"
+#include "tools/progress.h"
 
 namespace occmap::tools {
 namespace {
@@ -27,7 +27,7 @@ int run(const CoverageOptions& o) {
   if (config.cameras.size() > 32) {
     throw InputError(o.config, 0, "cameras", "coverage draws at most 32 cameras");
   }
-  const PreparedRig prepared = prepareRig(config, "coverage", o.column_height);
+  const PreparedRig prepared = prepareRigWithProgress(config, "coverage", o.column_height);
   const Rig& rig = prepared.rig;
   const std::vector<CarveTable>& tables = prepared.tables;
   const double column_height = prepared.column_height_m;

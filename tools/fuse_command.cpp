@@ -10,14 +10,13 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "capture/image_file.h"
+#include "config/config.h"
+#include "config/exit_codes.h"
+#include "config/input_error.h"
+#include "config/rig.h"
 #include "core/reference_fusion.h"
-#include "daemon/config.h"
-#include "daemon/exit_codes.h"
-#include "daemon/input_error.h"
-#include "daemon/rig.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
-#include "tools/prepared_rig.h"
 #include "tools/progress.h"
 
 namespace occmap::tools {
@@ -134,7 +133,7 @@ int run(const FuseOptions& o) {
   // Everything that can be wrong with the input is found before anything is written: a bad
   // calibration, source or background must not leave an empty or emptied folder behind.
   const std::vector<fs::path> old_maps = checkOutput(out, o.overwrite);
-  PreparedRig prepared = prepareRig(config, "fuse");
+  PreparedRig prepared = prepareRigWithProgress(config, "fuse");
   makeOutput(out, old_maps);
   Rig& rig = prepared.rig;
   const std::vector<CarveTable>& tables = prepared.tables;

@@ -3,8 +3,8 @@
 #include <exception>
 #include <map>
 
-#include "daemon/exit_codes.h"
-#include "daemon/input_error.h"
+#include "config/exit_codes.h"
+#include "config/input_error.h"
 #include "tools/commands.h"
 
 int main(int argc, char** argv) {

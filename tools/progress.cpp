@@ -54,4 +54,16 @@ void Progress::finish() {
   }
 }
 
+PreparedRig prepareRigWithProgress(const Config& config, const std::string& command,
+                                   std::optional<double> column_height_m) {
+  Progress progress("carve tables", config.cameras.size());
+  PreparedRig prepared =
+      prepareRig(config, {}, column_height_m, [&](std::size_t built) { progress.update(built); });
+  progress.finish();
+  for (const std::string& warning : prepared.rig.warnings()) {
+    std::fprintf(stderr, "occmap %s: warning: %s\n", command.c_str(), warning.c_str());
+  }
+  return prepared;
+}
+
 }  // namespace occmap::tools

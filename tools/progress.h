@@ -3,7 +3,10 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <optional>
 #include <string>
+
+#include "config/prepared_rig.h"
 
 namespace occmap::tools {
 
@@ -30,5 +33,10 @@ class Progress {
   std::chrono::steady_clock::time_point start_;
   std::chrono::steady_clock::time_point last_draw_;
 };
+
+// What fuse and coverage both start from: prepareRig with a progress bar over the carve tables and
+// the rig's warnings printed under the command's name.
+PreparedRig prepareRigWithProgress(const Config& config, const std::string& command,
+                                   std::optional<double> column_height_m = std::nullopt);
 
 }  // namespace occmap::tools

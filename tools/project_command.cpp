@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <memory>
 
-#include "daemon/calibration_file.h"
-#include "daemon/exit_codes.h"
+#include "config/calibration_file.h"
+#include "config/exit_codes.h"
 #include "tools/commands.h"
 
 namespace occmap::tools {

@@ -10,8 +10,8 @@
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 
-#include "daemon/config.h"
-#include "daemon/exit_codes.h"
+#include "config/config.h"
+#include "config/exit_codes.h"
 #include "tools/commands.h"
 #include "transport/control_message.h"
 #include "transport/lcm_bus.h"

@@ -16,9 +16,9 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
-#include "daemon/config.h"
-#include "daemon/exit_codes.h"
-#include "daemon/input_error.h"
+#include "config/config.h"
+#include "config/exit_codes.h"
+#include "config/input_error.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
 #include "transport/lcm_bus.h"

@@ -100,13 +100,6 @@ bool controlMacMatches(const ControlKey& key, const std::uint8_t* data, std::siz
   return same;
 }
 
-ControlKey makeRandomControlKey() {
-  ControlKey key;
-  key.size = ControlKey::kMinBytes;
-  randombytes_buf(key.bytes.data(), key.size);
-  return key;
-}
-
 std::int64_t randomControlNonce() {
   std::int64_t nonce = 0;
   randombytes_buf(&nonce, sizeof nonce);

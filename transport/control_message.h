@@ -21,6 +21,8 @@
 #include <occmap/control_reply_t.hpp>
 #include <occmap/control_request_t.hpp>
 
+#include "base/control_key.h"
+
 namespace occmap {
 
 // Where requests go and replies come from: the status channel's name + "_CONTROL" and
@@ -31,22 +33,6 @@ std::string controlReplyChannel(const std::string& status_channel);
 // "_CONTROL_STATUS" (OCCMAP_STATUS_CONTROL_STATUS by default).
 std::string controlStatusChannel(const std::string& status_channel);
 
-// The shared key: 32 to 64 bytes (HMAC-SHA256 takes any length; 32 random bytes are as strong as
-// it gets, and more than its 64-byte block would only be hashed down).
-struct ControlKey {
-  static constexpr std::size_t kMinBytes = 32;
-  static constexpr std::size_t kMaxBytes = 64;
-  ControlKey() = default;
-  ControlKey(const ControlKey&) = default;
-  ControlKey& operator=(const ControlKey&) = default;
-  // A key leaves nothing behind in memory it no longer uses (explicit_bzero is not optimised away).
-  ~ControlKey() { explicit_bzero(bytes.data(), bytes.size()); }
-  std::array<std::uint8_t, kMaxBytes> bytes{};
-  std::size_t size = 0;
-};
-
-// 32 bytes from the system's random source (libsodium's randombytes_buf): a new key.
-ControlKey makeRandomControlKey();
 // 64 random bits, for control_request_t.nonce and request_id.
 std::int64_t randomControlNonce();
 

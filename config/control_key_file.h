@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <string>
 
-#include "transport/control_message.h"
+#include "base/control_key.h"
 
 namespace occmap {
 
@@ -21,6 +21,9 @@ struct KeyFileOrigin {
 // a regular file, readable or writable by its group or others, or not 64 to 128 hex digits on one
 // line; the message says what to do.
 ControlKey loadControlKey(const std::filesystem::path& key_file, const KeyFileOrigin& origin);
+
+// 32 bytes from the system's random source (libsodium's randombytes_buf): a new key.
+ControlKey makeRandomControlKey();
 
 // Writes a new random key to `key_file`, created with mode 0600 (never replacing a file: a key in
 // use elsewhere would be lost). Throws InputError when it exists, std::runtime_error when it cannot

@@ -1,11 +1,11 @@
-#include "daemon/text_file.h"
+#include "config/text_file.h"
 
 #include <cerrno>
 #include <cstdio>
 #include <memory>
 #include <system_error>
 
-#include "daemon/input_error.h"
+#include "config/input_error.h"
 
 namespace occmap {
 namespace {

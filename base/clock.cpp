@@ -1,5 +1,6 @@
-#include "capture/frame_source.h"
+#include "base/clock.h"
 
+#include <cerrno>
 #include <chrono>
 
 #include <time.h>
@@ -16,6 +17,13 @@ std::int64_t monotonicNanoseconds() {
   timespec now{};
   ::clock_gettime(CLOCK_MONOTONIC, &now);
   return now.tv_sec * 1'000'000'000LL + now.tv_nsec;
+}
+
+void sleepUntil(std::int64_t monotonic_ns) {
+  const timespec until{static_cast<time_t>(monotonic_ns / 1'000'000'000LL),
+                       static_cast<long>(monotonic_ns % 1'000'000'000LL)};
+  while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) == EINTR) {
+  }
 }
 
 }  // namespace occmap

@@ -1,4 +1,4 @@
-#include "daemon/rig.h"
+#include "config/rig.h"
 
 #include <algorithm>
 #include <atomic>
@@ -14,8 +14,8 @@
 #include "capture/image_file.h"
 #include "capture/live_source.h"
 #include "capture/source_spec.h"
-#include "daemon/calibration_file.h"
-#include "daemon/input_error.h"
+#include "config/calibration_file.h"
+#include "config/input_error.h"
 
 namespace occmap {
 namespace {

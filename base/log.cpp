@@ -1,4 +1,4 @@
-#include "daemon/log.h"
+#include "base/log.h"
 
 #include <cstdio>
 #include <cstdlib>
@@ -6,8 +6,6 @@
 
 #include <sys/stat.h>
 #include <unistd.h>
-
-#include "capture/frame_source.h"
 
 namespace occmap {
 namespace {
@@ -57,18 +55,6 @@ void logLine(LogLevel level, const char* format, ...) {
   // One write per line so that threads never interleave inside a line.
   [[maybe_unused]] const ssize_t written =
       ::write(STDERR_FILENO, line, static_cast<std::size_t>(used));
-}
-
-bool RateLimit::allow(std::uint64_t& suppressed) {
-  const std::int64_t now = monotonicNanoseconds();
-  std::int64_t next = next_ns_.load(std::memory_order_relaxed);
-  if (now < next ||
-      !next_ns_.compare_exchange_strong(next, now + interval_ns_, std::memory_order_relaxed)) {
-    held_.fetch_add(1, std::memory_order_relaxed);
-    return false;
-  }
-  suppressed = held_.exchange(0, std::memory_order_relaxed);
-  return true;
 }
 
 }  // namespace occmap

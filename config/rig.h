@@ -9,10 +9,10 @@
 #include "capture/frame_source.h"
 #include "capture/sim_source.h"
 #include "capture/source_spec.h"
+#include "config/config.h"
 #include "core/camera.h"
 #include "core/carve_table.h"
 #include "core/image.h"
-#include "daemon/config.h"
 
 namespace occmap {
 
@@ -38,7 +38,7 @@ struct RigCamera {
   Image floor_mask;  // the stream's size, or empty: every pixel is floor
   int threshold = 20;
   std::unique_ptr<FrameSource> source;  // empty for a live camera not opened yet
-  bool live = false;                     // a camera (aravis://, v4l2://), not files or sim
+  bool live = false;                    // a camera (aravis://, v4l2://), not files or sim
   SimSource* sim = nullptr;  // the same source when it is the simulator, for its ground truth
 };
 

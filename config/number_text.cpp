@@ -1,4 +1,4 @@
-#include "daemon/number_text.h"
+#include "config/number_text.h"
 
 #include <charconv>
 #include <iomanip>

@@ -1,4 +1,4 @@
-#include "daemon/input_error.h"
+#include "config/input_error.h"
 
 #include <utility>
 

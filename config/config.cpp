@@ -1,4 +1,4 @@
-#include "daemon/config.h"
+#include "config/config.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,9 +7,9 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "daemon/input_error.h"
-#include "daemon/number_text.h"
-#include "daemon/text_file.h"
+#include "config/input_error.h"
+#include "config/number_text.h"
+#include "config/text_file.h"
 
 namespace occmap {
 

@@ -1,17 +1,22 @@
-#include "daemon/control_key.h"
+#include "config/control_key_file.h"
 
 #include <cerrno>
 #include <cstring>
 #include <stdexcept>
 
 #include <fcntl.h>
+#include <sodium.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "daemon/input_error.h"
+#include "config/input_error.h"
 
 namespace occmap {
 namespace {
+
+// libsodium wants sodium_init() before its first use (it seeds its random source); it may be
+// called again and from any thread.
+[[maybe_unused]] const int sodium_ready = sodium_init();
 
 int hexDigit(char c) {
   if (c >= '0' && c <= '9') return c - '0';
@@ -126,6 +131,13 @@ void writeNewControlKey(const std::filesystem::path& key_file) {
     ::unlink(key_file.c_str());
     throw std::runtime_error("cannot write " + name + ": " + std::strerror(error));
   }
+}
+
+ControlKey makeRandomControlKey() {
+  ControlKey key;
+  key.size = ControlKey::kMinBytes;
+  randombytes_buf(key.bytes.data(), key.size);
+  return key;
 }
 
 }  // namespace occmap

@@ -1,4 +1,4 @@
-#include "daemon/calibration_file.h"
+#include "config/calibration_file.h"
 
 #include <algorithm>
 #include <cctype>
@@ -17,9 +17,9 @@
 #include <libxml/xmlerror.h>
 #include <yaml-cpp/yaml.h>
 
-#include "daemon/input_error.h"
-#include "daemon/number_text.h"
-#include "daemon/text_file.h"
+#include "config/input_error.h"
+#include "config/number_text.h"
+#include "config/text_file.h"
 
 namespace occmap {
 namespace {

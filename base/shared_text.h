@@ -1,0 +1,49 @@
+#pragma once
+// A short text that one thread writes on its rare error paths and others read (a camera's last
+// error, for the status): a fixed buffer under a mutex, so neither side ever allocates. Longer
+// texts are cut at the capacity.
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdio>
+#include <cstring>
+#include <mutex>
+#include <string>
+#include <string_view>
+
+namespace occmap {
+
+template <std::size_t Capacity>
+class SharedText {
+ public:
+  void set(std::string_view text) {
+    const std::lock_guard lock(mutex_);
+    size_ = std::min(text.size(), Capacity);
+    std::memcpy(text_, text.data(), size_);
+  }
+  // printf-style, cut at the capacity.
+  template <typename... Args>
+  void format(const char* format, Args... args) {
+    char line[Capacity + 1];
+    const int written = std::snprintf(line, sizeof line, format, args...);
+    set(std::string_view(line, written < 0 ? 0 : std::min<std::size_t>(written, Capacity)));
+  }
+  // Into `out`, which allocates nothing once its capacity reaches Capacity (reserve it once).
+  void copyTo(std::string& out) const {
+    const std::lock_guard lock(mutex_);
+    out.assign(text_, size_);
+  }
+  std::string str() const {
+    std::string out;
+    copyTo(out);
+    return out;
+  }
+  static constexpr std::size_t capacity() { return Capacity; }
+
+ private:
+  mutable std::mutex mutex_;
+  char text_[Capacity] = {};
+  std::size_t size_ = 0;
+};
+
+}  // namespace occmap
