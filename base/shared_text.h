@@ -4,6 +4,7 @@
 // texts are cut at the capacity.
 
 #include <algorithm>
+#include <cstdarg>
 #include <cstddef>
 #include <cstdio>
 #include <cstring>
@@ -22,11 +23,14 @@ class SharedText {
     std::memcpy(text_, text.data(), size_);
   }
   // printf-style, cut at the capacity.
-  template <typename... Args>
-  void format(const char* format, Args... args) {
+  void format(const char* format, ...) __attribute__((format(printf, 2, 3))) {
     char line[Capacity + 1];
-    const int written = std::snprintf(line, sizeof line, format, args...);
-    set(std::string_view(line, written < 0 ? 0 : std::min<std::size_t>(written, Capacity)));
+    va_list arguments;
+    va_start(arguments, format);
+    const int written = std::vsnprintf(line, sizeof line, format, arguments);
+    va_end(arguments);
+    set(std::string_view(
+        line, written < 0 ? 0 : std::min(static_cast<std::size_t>(written), Capacity)));
   }
   // Into `out`, which allocates nothing once its capacity reaches Capacity (reserve it once).
   void copyTo(std::string& out) const {

@@ -1,5 +1,9 @@
 #include "bench/pipeline_under_load.h"
 
+#include <stdexcept>
+
+#include "transport/lcm_bus.h"
+
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -99,8 +103,12 @@ PipelineUnderLoad::PipelineUnderLoad(const LoadOptions& o, bool multicast, const
                    subscriber_->out().c_str(), subscriber_->err().c_str());
     }
   }
+  auto bus = std::make_unique<LcmBus>(url);
+  if (!bus->good()) throw std::runtime_error("cannot open LCM at " + url);
   pipeline_ = std::make_unique<Pipeline>(
-      Rig::assemble(std::move(daemon_config), std::move(cameras)), std::move(tables));
+      PreparedRig{Rig::assemble(std::move(daemon_config), std::move(cameras)), std::move(tables),
+                  o.column_height_m},
+      std::move(bus));
 }
 
 long long PipelineUnderLoad::lostSoFar() {

@@ -19,8 +19,10 @@
 #include "config/input_error.h"
 #include "config/prepared_rig.h"
 #include "config/rig.h"
+#include "daemon/liveness.h"
 #include "daemon/pipeline.h"
 #include "daemon/service_notifier.h"
+#include "transport/lcm_bus.h"
 
 namespace occmap {
 namespace {
@@ -72,23 +74,40 @@ PreparedRig prepare(const Config& config, bool open_live_cameras) {
 // every camera connection the new config leaves unchanged, and the new one starts. A camera that
 // refuses the new settings puts the old config back (and the error goes on to the caller). Only
 // when even the old config cannot be restored does `pipeline` end up empty.
+// The bus a config publishes on. A daemon that can publish nothing must not say it is ready.
+std::unique_ptr<Bus> openBus(const Config& config) {
+  auto bus = std::make_unique<LcmBus>(config.transport.lcm_url);
+  if (!bus->good()) {
+    throw std::runtime_error("cannot open LCM at " + config.transport.lcm_url +
+                             " (a udpm:// URL needs a network with a multicast route; see "
+                             "docs/daemon.md)");
+  }
+  return bus;
+}
+
+std::unique_ptr<Pipeline> startPipeline(PreparedRig prepared, const PipelineOptions& options) {
+  std::unique_ptr<Bus> bus = openBus(prepared.rig.config());
+  auto pipeline = std::make_unique<Pipeline>(std::move(prepared), std::move(bus), options);
+  pipeline->start();
+  return pipeline;
+}
+
 void reload(std::unique_ptr<Pipeline>& pipeline, const std::string& file,
             const PipelineOptions& options) {
   PreparedRig next = prepare(loadConfig(file), false);  // InputError: the old one runs on
   pipeline->stop();
-  Rig old_rig = pipeline->takeRig();
-  std::vector<CarveTable> old_tables = pipeline->takeTables();
+  PreparedRig old = pipeline->takePrepared();
   pipeline.reset();
   try {
-    next.rig.openLiveCameras(&old_rig);
-    pipeline = std::make_unique<Pipeline>(std::move(next.rig), std::move(next.tables), options);
+    next.rig.openLiveCameras(&old.rig);
+    std::unique_ptr<Bus> bus = openBus(next.rig.config());
+    pipeline = std::make_unique<Pipeline>(std::move(next), std::move(bus), options);
     pipeline->start();
   } catch (const std::exception&) {
-    if (pipeline) next.rig = pipeline->takeRig();  // it never started: its cameras go back
+    if (pipeline) next = pipeline->takePrepared();  // it never started: its cameras go back
     pipeline.reset();
-    old_rig.openLiveCameras(&next.rig);  // takes back what went over, reopens the rest
-    pipeline = std::make_unique<Pipeline>(std::move(old_rig), std::move(old_tables), options);
-    pipeline->start();
+    old.rig.openLiveCameras(&next.rig);  // takes back what went over, reopens the rest
+    pipeline = startPipeline(std::move(old), options);
     throw;
   }
   logLine(LogLevel::kNotice, "reloaded %s", file.c_str());
@@ -97,10 +116,6 @@ void reload(std::unique_ptr<Pipeline>& pipeline, const std::string& file,
 PipelineOptions optionsFromEnvironment(std::chrono::steady_clock::time_point start) {
   PipelineOptions options;
   options.daemon_start = start;
-  // Fault injection for the watchdog test only: fusion hangs after this many maps.
-  if (const char* stall = std::getenv("OCCMAP_TEST_STALL_FUSION_AFTER_MAPS")) {
-    options.stall_fusion_after_maps = std::strtoull(stall, nullptr, 10);
-  }
   // systemd's StateDirectory= (/var/lib/occmap): where a recaptured background is saved. It may
   // list several folders, separated by ':'; the first is ours.
   if (const char* state = std::getenv("STATE_DIRECTORY"); state != nullptr && *state != '\0') {
@@ -139,9 +154,7 @@ int run(const Options& options) {
   ServiceNotifier notifier;
   const PipelineOptions pipeline_options = optionsFromEnvironment(start);
   PreparedRig prepared = prepare(loadConfig(options.config), true);
-  auto pipeline = std::make_unique<Pipeline>(std::move(prepared.rig), std::move(prepared.tables),
-                                             pipeline_options);
-  pipeline->start();
+  std::unique_ptr<Pipeline> pipeline = startPipeline(std::move(prepared), pipeline_options);
   logLine(LogLevel::kNotice, "started with %s", options.config.c_str());
 
   // The main loop: signals, readiness, the watchdog (only while fusion makes progress), STATUS=.
@@ -152,8 +165,7 @@ int run(const Options& options) {
                               std::chrono::milliseconds(500))
                         : std::chrono::milliseconds(500);
   bool ready = false;
-  std::uint64_t last_progress = 0;
-  std::uint64_t last_lcm_rounds = 0;
+  Liveness liveness;
   auto last_status = std::chrono::steady_clock::now() - std::chrono::seconds(10);
   for (;;) {
     pollfd fd{signal_fd, POLLIN, 0};
@@ -204,16 +216,13 @@ int run(const Options& options) {
       notifier.ready();
       logLine(LogLevel::kNotice, "ready: %s", pipeline->summary().c_str());
     }
-    const std::uint64_t progress = pipeline->mapsFused();
-    const std::uint64_t lcm_rounds = pipeline->lcmRounds();
-    if (progress != last_progress && lcm_rounds != last_lcm_rounds) {
-      // Fusion made a map and the LCM thread went round since the last look: the daemon is alive.
-      // A stalled fusion or a publisher stuck in a call stops these pings, and systemd restarts
-      // the service after WatchdogSec=. (A network that is down is not a stall: publishing goes
-      // on failing, counted, and the pings go on.)
-      notifier.watchdog();
-      last_progress = progress;
-      last_lcm_rounds = lcm_rounds;
+    if (liveness.alive(pipeline->mapsFused(), pipeline->publisherRounds())) notifier.watchdog();
+    if (pipeline->failed()) {
+      // A fusion or publisher thread ended on an error (logged): no more maps will come. Exit for
+      // systemd to restart the service (Restart=on-failure) rather than run on without maps.
+      notifier.stopping();
+      pipeline->stop();
+      return kExitFailure;
     }
     const auto now = std::chrono::steady_clock::now();
     if (now - last_status >= std::chrono::seconds(2)) {

@@ -1,48 +1,50 @@
 #pragma once
+// The live daemon's data path (ARCHITECTURE.md, "Threads and data flow"):
+//   one capture thread per camera -> the camera's newest frame (a triple buffer of changed-pixel
+//   masks) -> the fusion thread -> a triple-buffered map -> the publisher thread (maps, status,
+//   requests on the bus).
+// This is the wiring: the threads and what they hand each other. The rules they follow are plain
+// code elsewhere, with time passed in: camera health (core/camera_health.h), frame sets
+// (core/frame_set.h), pacing and reconnection (core/pacing.h), the fusion (core/fusion_kernel.h),
+// publishing (transport/map_publisher.h, status_publisher.h, status_requests.h).
+// Everything on the data path is allocated before start(); it then takes no locks, allocates
+// nothing and logs only through rate limits. No exception leaves a thread: a camera whose thread
+// fails goes down with the reason in its status; a fusion or publisher thread that fails ends the
+// maps, failed() says so, and occmapd exits for systemd to restart it.
 
 #include <atomic>
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <functional>
-#include <future>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
-#include <utility>
 #include <vector>
 
-#include "base/log.h"
-#include "config/rig.h"
-#include "core/carve_table.h"
+#include "base/event_fd.h"
+#include "base/rate_limit.h"
+#include "base/shared_text.h"
+#include "base/time_histogram.h"
+#include "config/prepared_rig.h"
+#include "core/camera_health.h"
+#include "core/frame_set.h"
 #include "core/fusion_kernel.h"
 #include "core/map_frame.h"
-#include "core/spsc_ring.h"
 #include "core/triple_buffer.h"
 #include "daemon/remote_control.h"
+#include "transport/bus.h"
+#include "transport/map_publisher.h"
+#include "transport/status_publisher.h"
 
 namespace occmap {
-
-class LcmBus;
-
-// What the daemon as a whole is doing, for status_t.state.
-enum class DaemonState : std::uint8_t {
-  kStarting = 0,
-  kRunning = 1,
-  kReloading = 2,
-  kStopping = 3
-};
 
 struct PipelineOptions {
   std::chrono::steady_clock::time_point daemon_start = std::chrono::steady_clock::now();
   std::chrono::milliseconds status_period{1000};
-  // A streaming camera without a frame for this long is down (its cells become unseen); with the
-  // fusion thread's 100 ms wake-up that is within a second of its last frame.
-  std::chrono::milliseconds camera_down_after{900};
-  // A camera that has not delivered its first frame this long after start is down.
-  std::chrono::milliseconds camera_start_timeout{3000};
+  // When a camera is down (silence after its frames, or no first frame): core/camera_health.h.
+  CameraHealthPolicy camera_health;
   // With no new frame set for this long, fusion still makes a map (cameras down: all unseen), so
   // that subscribers and the watchdog see the daemon alive.
   std::chrono::milliseconds heartbeat{1000};
@@ -52,163 +54,129 @@ struct PipelineOptions {
   double max_control_requests_per_s = 10.0;
   // Where a recaptured background is saved ($STATE_DIRECTORY under systemd), or nowhere.
   std::optional<std::filesystem::path> state_directory;
-  // Test hooks: extra LCM subscriptions, registered in the LCM thread (their handlers run there).
-  using Handler = std::function<void(const std::uint8_t* data, std::size_t size)>;
-  std::vector<std::pair<std::string, Handler>> subscriptions;
-  // Test hook: runs in the LCM thread at every round of its loop (ten a second at least), with the
-  // daemon's own bus, to publish what another program on the network would (memq:// is private to
-  // its handle); the daemon's subscriptions hear it at the next round.
-  std::function<void(LcmBus& bus)> each_lcm_round;
-  // Fault injection for tests of the watchdog: fusion hangs after this many maps (0 = never).
-  std::uint64_t stall_fusion_after_maps = 0;
 };
 
-// Durations as a histogram: one writer thread, readers anywhere, no locks. 10 us bins up to
-// 100 ms (the last holds the rest), and the exact maximum.
-class TimeHistogram {
- public:
-  static constexpr int kBins = 10'000;
-  void record(std::int64_t ns);
-  double percentileMs(double fraction) const;
-  double maxMs() const {
-    return static_cast<double>(max_ns_.load(std::memory_order_relaxed)) / 1e6;
-  }
-  std::uint64_t count() const { return count_.load(std::memory_order_relaxed); }
-
- private:
-  std::atomic<std::uint32_t> bins_[kBins] = {};
-  std::atomic<std::uint64_t> count_{0};
-  std::atomic<std::int64_t> max_ns_{0};
-};
-
-// The live daemon's data path (ARCHITECTURE.md, "Threads and data flow"):
-//   one capture thread per camera -> a lock-free SPSC ring per camera -> the fusion thread ->
-//   a triple-buffered map -> the LCM thread (publishes maps and status, answers requests).
-// Everything on that path is allocated before start(); it then takes no locks, allocates nothing
-// and logs only through rate limits.
 class Pipeline {
  public:
-  // Takes the opened rig and one carve table per camera (same order).
-  Pipeline(Rig rig, std::vector<CarveTable> tables, PipelineOptions options = {});
+  // Takes the prepared rig (one carve table per camera) and the bus to publish on, which only
+  // the publisher thread uses from start() on.
+  Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptions options = {});
   ~Pipeline();
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
 
-  // Starts every thread. Throws std::runtime_error when LCM cannot be opened for the config's
-  // lcm_url (then nothing runs): a daemon that can publish nothing must not say it is ready.
+  // Starts every thread: the publisher first, so that it listens before the first map exists.
   void start();
   // Stops and joins every thread, in the order the data flows: the cameras first, then fusion
-  // (which finishes the map it is making), then the LCM thread, which publishes what fusion made
-  // last. So every map fused is published. Idempotent; returns within a frame period or so.
+  // (which finishes the map it is making), then the publisher, which sends what fusion made last.
+  // So every map fused is published. Idempotent; returns within a frame period or so.
   void stop();
 
   // For the main thread (any thread may call these).
   std::uint64_t mapsFused() const { return maps_fused_.load(std::memory_order_relaxed); }
-  std::uint64_t mapsPublished() const { return maps_published_.load(std::memory_order_relaxed); }
+  std::uint64_t mapsPublished() const { return map_publisher_.published(); }
   // How long fusion takes per frame set, and how long from the arrival of a map's newest frame
-  // (its capture thread's copy into the ring) to the return of its publish: what the daemon adds
-  // to a frame's way to the network.
+  // (its capture thread's hand-off) to the return of its publish: what the daemon adds to a
+  // frame's way to the network.
   const TimeHistogram& fusionTimes() const { return fusion_times_; }
-  const TimeHistogram& publishLatency() const { return publish_latency_; }
-  // Frames lost on the way, over all cameras (full rings, bad frames).
+  const TimeHistogram& publishLatency() const { return map_publisher_.latency(); }
+  // Frames lost on the way, over all cameras (bad frames, wrong sizes).
   std::uint64_t framesDropped() const;
+  // Frames fusion never took because a newer one of the same camera came first (fusion fuses the
+  // newest): not lost, overtaken.
+  std::uint64_t framesOvertaken() const;
   // Maps the publisher never took because fusion made a newer one first (it publishes the newest).
   // fused = published + skipped + publish errors.
   std::uint64_t mapsSkipped() const { return maps_skipped_.load(std::memory_order_relaxed); }
-  // Rounds of the LCM thread's loop (at least ten a second while it runs): the watchdog's proof
-  // that publishing is not stuck.
-  std::uint64_t lcmRounds() const { return lcm_rounds_.load(std::memory_order_relaxed); }
+  // Rounds of the publisher thread's loop (at least ten a second while it runs): the watchdog's
+  // proof that publishing is not stuck.
+  std::uint64_t publisherRounds() const { return publisher_rounds_.load(std::memory_order_relaxed); }
   // Every camera has delivered a frame or been marked down: the daemon may say READY.
   bool camerasReportedIn() const;
+  // The fusion or the publisher thread ended on an error (logged): no more maps will come.
+  bool failed() const { return failed_.load(std::memory_order_relaxed); }
   // One line for systemd's STATUS=: maps/s, cameras streaming, drops.
   std::string summary() const;
   void setState(DaemonState state) { state_.store(state, std::memory_order_relaxed); }
   // How control requests ended (docs/control.md), and each camera's threshold in effect.
   ControlCounts controlCounts() const { return control_->counts(); }
   int threshold(std::size_t camera) const {
-    return camera_controls_[camera]->threshold.load(std::memory_order_relaxed);
+    return cameras_[camera]->control.threshold.load(std::memory_order_relaxed);
   }
-  const Config& config() const { return rig_.config(); }
+  const Config& config() const { return prepared_.rig.config(); }
   // After stop(): the rig (with its open cameras) and the tables, for a reload to take over.
-  Rig takeRig() { return std::move(rig_); }
-  std::vector<CarveTable> takeTables() { return std::move(tables_); }
+  PreparedRig takePrepared() { return std::move(prepared_); }
 
  private:
+  // What a capture thread hands fusion: the changed-pixel mask of a frame, not the frame.
   struct CapturedFrame {
-    Image image;
     std::vector<std::uint8_t> changed;  // changed-pixel bits in 8 x 8 tiles (fusion_kernel.h)
     std::uint64_t sequence = 0;
     std::int64_t capture_time_us = 0;
-    std::int64_t monotonic_ns = 0;
+    std::int64_t arrival_ns = 0;  // CLOCK_MONOTONIC, when the capture thread had it
   };
-  // Shared between a capture thread (writer), the fusion thread and the LCM thread (readers).
-  struct alignas(64) CameraCounters {
-    std::atomic<std::uint64_t> frames_in{0};
+  // One camera's stage: its capture thread writes, fusion and the publisher read.
+  struct Camera {
+    Camera(const RigCamera& camera, double fps, const CameraHealthPolicy& policy, int width,
+           int height);
+    CameraHealth health;
+    CameraControl control;  // threshold and background as control requests change them
+    // The newest frame: when fusion is behind, the oldest gives way (fusion only takes the newest).
+    TripleBuffer<CapturedFrame> frames;
+    alignas(64) std::atomic<std::uint64_t> frames_in{0};
     std::atomic<std::uint64_t> frames_dropped{0};
+    std::atomic<std::uint64_t> frames_overtaken{0};
     std::atomic<std::int64_t> last_capture_us{0};
-    std::atomic<std::int64_t> last_frame_ns{0};  // monotonic; 0 before the first frame
-    std::atomic<CameraState> state{CameraState::kStarting};
-    std::atomic<bool> lost{false};  // the source reported the device gone; reconnecting
-    RateLimit down_warnings{std::chrono::seconds(10)};  // a flapping camera logs now and then
     std::atomic<std::int32_t> reconnects{0};
-    // Why the camera last failed: written on error paths only (never per frame), hence a mutex.
-    void setLastError(std::string text) {
-      std::lock_guard lock(error_mutex);
-      last_error = std::move(text);
-    }
-    std::string lastError() {
-      std::lock_guard lock(error_mutex);
-      return last_error;
-    }
-    std::mutex error_mutex;
-    std::string last_error;
+    SharedText<256> last_error;  // why it last failed or went down (fixed: the status allocates nothing)
+    RateLimit error_warnings{std::chrono::seconds(10)};  // bad frames
+    RateLimit down_warnings{std::chrono::seconds(10)};   // a flapping camera logs now and then
   };
 
   void captureLoop(std::size_t camera);
+  void loseCamera(std::size_t camera, const char* why);
   void fusionLoop();
-  void lcmLoop(std::promise<std::string>& opened);
-  void fuse(std::int64_t now_ns);
-  void wake(int eventfd);
+  void noteState(std::size_t camera, CameraState state, std::int64_t now);
+  void fuse(std::int64_t now);
+  void publisherLoop();
+  void fillReport(std::int64_t now);
+  // Runs a thread's body; what it throws is logged (and, for fusion and the publisher, failed()).
+  static constexpr std::size_t kNoCamera = SIZE_MAX;
+  template <typename Body>
+  void guarded(const char* thread, std::size_t camera, Body&& body);
+  void threadFailed(const char* thread, std::size_t camera, const char* what);
 
-  Rig rig_;
-  std::vector<CarveTable> tables_;
+  PreparedRig prepared_;
+  std::unique_ptr<Bus> bus_;
   PipelineOptions options_;
   FusionKernel kernel_;
-  std::vector<std::unique_ptr<SpscRing<CapturedFrame>>> rings_;
-  std::vector<std::unique_ptr<CameraCounters>> counters_;
-  std::vector<std::unique_ptr<RateLimit>> drop_warnings_;
-  // What control requests change, per camera (threshold, background), and the requests' handler;
-  // declared in this order so that the handler, which points at them, goes first.
-  std::vector<std::unique_ptr<CameraControl>> camera_controls_;
-  std::unique_ptr<RemoteControl> control_;
+  std::vector<std::unique_ptr<Camera>> cameras_;
+  std::unique_ptr<RemoteControl> control_;  // points at the cameras' controls: declared after them
+
+  // Fusion thread state.
+  FrameSetAssembler frame_set_;
+  std::vector<CameraState> states_;         // each camera's state at the last round
+  std::vector<CameraState> logged_states_;  // what the log last said of it
+  std::vector<const std::uint8_t*> changed_;
   TripleBuffer<MapFrame> maps_;
   TimeHistogram fusion_times_;
-  TimeHistogram publish_latency_;  // written by the LCM thread
 
-  // Fusion thread state: the newest frame held from each ring, and whether it is new since the
-  // last map.
-  struct Held {
-    CapturedFrame* frame = nullptr;
-    bool fresh = false;
-  };
-  std::vector<Held> held_;
-  std::vector<const std::uint8_t*> changed_;
-  std::int64_t set_deadline_ns_ = 0;  // 0: no frame set open
-  std::int64_t last_fused_ns_ = 0;
+  // Publisher thread state.
+  MapPublisher map_publisher_;
+  DaemonReport report_;
   std::int64_t start_ns_ = 0;
 
   // Stop requests, one per stage so that each drains what the one before it left.
   std::atomic<bool> stopping_{false};  // stop() was called; the capture threads end
   std::atomic<bool> stop_fusion_{false};
-  std::atomic<bool> stop_lcm_{false};
-  std::atomic<std::uint64_t> lcm_rounds_{0};
+  std::atomic<bool> stop_publisher_{false};
+  std::atomic<bool> failed_{false};
+  std::atomic<std::uint64_t> publisher_rounds_{0};
   std::atomic<std::uint64_t> maps_fused_{0};
-  std::atomic<std::uint64_t> maps_published_{0};
   std::atomic<std::uint64_t> maps_skipped_{0};
-  std::atomic<std::uint64_t> publish_errors_{0};
   std::atomic<DaemonState> state_{DaemonState::kStarting};
-  int fusion_wakeup_ = -1;   // eventfd: capture threads -> fusion
-  int publish_wakeup_ = -1;  // eventfd: fusion -> LCM thread
+  EventFd fusion_wakeup_;   // capture threads -> fusion
+  EventFd publish_wakeup_;  // fusion -> publisher
   std::vector<std::thread> threads_;
   bool started_ = false;
 };

@@ -10,7 +10,6 @@
 #include <system_error>
 
 #include <poll.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include "base/clock.h"
@@ -19,7 +18,7 @@
 #include "capture/image_file.h"
 #include "config/control_key_file.h"
 #include "core/background_median.h"
-#include "transport/lcm_bus.h"
+#include "transport/bus.h"
 
 namespace occmap {
 namespace {
@@ -34,10 +33,6 @@ ControlKey keyOf(const Config& config) {
                         {config.file.string(), config.control.key_file_line, "control.key_file"});
 }
 
-void drain(int fd) {
-  std::uint64_t count = 0;
-  [[maybe_unused]] const ssize_t got = ::read(fd, &count, sizeof count);
-}
 
 }  // namespace
 
@@ -54,14 +49,9 @@ RemoteControl::RemoteControl(const Config& config, std::vector<CameraControl*> c
   // Room for the longest reply, made now: the LCM thread then allocates nothing to answer.
   reply_.message.reserve(sizeof finished_message_);
   reply_bytes_.reserve(kMaxControlRequestBytes + sizeof finished_message_);
-  wakeup_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-  if (wakeup_ < 0) throw std::system_error(errno, std::generic_category(), "eventfd");
 }
 
-RemoteControl::~RemoteControl() {
-  stop();
-  ::close(wakeup_);
-}
+RemoteControl::~RemoteControl() { stop(); }
 
 void RemoteControl::start() {
   if (enabled_ && !thread_.joinable()) thread_ = std::thread([this] { recaptureLoop(); });
@@ -69,8 +59,7 @@ void RemoteControl::start() {
 
 void RemoteControl::stop() {
   stopping_.store(true, std::memory_order_relaxed);
-  const std::uint64_t one = 1;
-  [[maybe_unused]] const ssize_t written = ::write(wakeup_, &one, sizeof one);
+  wakeup_.signal();
   if (thread_.joinable()) thread_.join();
 }
 
@@ -80,7 +69,7 @@ ControlCounts RemoteControl::counts() const {
           stale_.load(relaxed),    refused_.load(relaxed),   accepted_.load(relaxed)};
 }
 
-void RemoteControl::reply(LcmBus& bus, std::int64_t request_id, std::int8_t outcome,
+void RemoteControl::reply(Bus& bus, std::int64_t request_id, std::int8_t outcome,
                           const char* format, ...) {
   char text[sizeof finished_message_];
   va_list arguments;
@@ -98,7 +87,7 @@ void RemoteControl::reply(LcmBus& bus, std::int64_t request_id, std::int8_t outc
 }
 
 void RemoteControl::handle(const std::uint8_t* data, std::size_t size, std::int64_t now_us,
-                           LcmBus& bus) {
+                           Bus& bus) {
   constexpr auto relaxed = std::memory_order_relaxed;
   if (!enabled_) {
     disabled_.fetch_add(1, relaxed);
@@ -200,8 +189,7 @@ void RemoteControl::handle(const std::uint8_t* data, std::size_t size, std::int6
   job_frames_ = request->value;
   job_request_id_ = id;
   recapture_busy_.store(true, std::memory_order_release);
-  const std::uint64_t one = 1;
-  [[maybe_unused]] const ssize_t written = ::write(wakeup_, &one, sizeof one);
+  wakeup_.signal();
   accepted_.fetch_add(1, relaxed);
   logLine(LogLevel::kNotice, "control: recapturing the background of camera %s from %d frames",
           camera.name.c_str(), request->value);
@@ -210,7 +198,7 @@ void RemoteControl::handle(const std::uint8_t* data, std::size_t size, std::int6
         camera.name.c_str(), request->value, request->value / camera.fps, camera.fps);
 }
 
-void RemoteControl::publishReplies(LcmBus& bus) {
+void RemoteControl::publishReplies(Bus& bus) {
   if (!finished_.load(std::memory_order_acquire)) return;
   reply(bus, finished_request_id_, finished_outcome_, "%s", finished_message_);
   finished_.store(false, std::memory_order_release);
@@ -235,10 +223,10 @@ void RemoteControl::finishRecapture(std::int64_t request_id, std::int8_t outcome
 }
 
 void RemoteControl::recaptureLoop() {
-  pollfd wakeup{wakeup_, POLLIN, 0};
+  pollfd wakeup{wakeup_.fd(), POLLIN, 0};
   while (!stopping_.load(std::memory_order_relaxed)) {
     ::poll(&wakeup, 1, 1000);
-    drain(wakeup_);
+    wakeup_.drain();
     if (stopping_.load(std::memory_order_relaxed)) break;
     if (!recapture_busy_.load(std::memory_order_acquire)) continue;
     recapture(job_camera_, job_frames_, job_request_id_);

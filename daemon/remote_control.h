@@ -23,16 +23,19 @@
 
 #include <occmap/control_reply_t.hpp>
 
+#include "base/event_fd.h"
+
 #include "config/config.h"
 #include "core/background_handover.h"
 #include "core/frame_recorder.h"
 #include "core/image.h"
 #include "transport/control_message.h"
 #include "transport/replay_window.h"
+#include "transport/status_publisher.h"
 
 namespace occmap {
 
-class LcmBus;
+class Bus;
 
 // What a control request may change of one camera, read by its capture thread for every frame.
 struct CameraControl {
@@ -52,16 +55,6 @@ struct CameraControl {
   std::atomic<std::int64_t> background_utime{0};  // 0: the config's image
   const int width;
   const int height;
-};
-
-// How many messages on the control channel ended each way (control_status_t).
-struct ControlCounts {
-  std::uint64_t disabled = 0;
-  std::uint64_t malformed = 0;
-  std::uint64_t bad_mac = 0;
-  std::uint64_t stale = 0;
-  std::uint64_t refused = 0;
-  std::uint64_t accepted = 0;
 };
 
 class RemoteControl {
@@ -89,15 +82,15 @@ class RemoteControl {
   void stop();
 
   // LCM thread: one message from the control channel; `now_us` is the daemon's clock.
-  void handle(const std::uint8_t* data, std::size_t size, std::int64_t now_us, LcmBus& bus);
+  void handle(const std::uint8_t* data, std::size_t size, std::int64_t now_us, Bus& bus);
   // LCM thread, every round: sends the reply of a recapture that has ended.
-  void publishReplies(LcmBus& bus);
+  void publishReplies(Bus& bus);
 
   // Any thread.
   ControlCounts counts() const;
 
  private:
-  void reply(LcmBus& bus, std::int64_t request_id, std::int8_t outcome, const char* format, ...)
+  void reply(Bus& bus, std::int64_t request_id, std::int8_t outcome, const char* format, ...)
       __attribute__((format(printf, 5, 6)));
   void recaptureLoop();
   void recapture(std::size_t camera, int frames, std::int64_t request_id);
@@ -130,7 +123,7 @@ class RemoteControl {
   std::int8_t finished_outcome_ = 0;
   char finished_message_[384] = {};
 
-  int wakeup_ = -1;  // eventfd: a job for the recapture thread, or stop
+  EventFd wakeup_;  // a job for the recapture thread, or stop
   std::atomic<bool> stopping_{false};
   std::thread thread_;
 };

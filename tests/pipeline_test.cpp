@@ -1,8 +1,12 @@
-// The live pipeline in process (LCM's memq://): capture threads, rings, fusion, the LCM thread. The
-// maps arrive in order and each equals the reference fusion of the very frames it says it used.
+// The live pipeline in process, on an in-memory bus (transport/memory_bus.h): capture threads,
+// fusion, the publisher. The maps arrive in order and each equals the reference fusion of the very
+// frames it says it used; a stop under load loses nothing; steady work allocates nothing; a
+// publisher stuck in a call stops the watchdog's pings. Each with the floor point (0) and with the
+// shipped default, 0.3 m columns.
 #include "daemon/pipeline.h"
 
 #include <atomic>
+#include <condition_variable>
 #include <filesystem>
 #include <mutex>
 #include <random>
@@ -11,48 +15,64 @@
 #include <gtest/gtest.h>
 
 #include "allocation_counter.h"
+#include "bus_listener.h"
 #include "config/config.h"
+#include "daemon/liveness.h"
 #include "sim_reference.h"
 #include "sim_room_config.h"
 #include "temporary_folder.h"
+#include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
+#include "transport/memory_bus.h"
 
 namespace occmap {
 namespace {
 
+using testing::BusListener;
 using testing::TemporaryFolder;
 
-TEST(Pipeline, MapsArriveInOrderAndEqualTheReferenceFusionOfTheirFrames) {
-  TemporaryFolder folder;
-  const auto file = folder.write("room.yaml", testing::simRoomConfig("memq://"));
-  const Config config = loadConfig(file);
-  Rig rig = Rig::open(config);
-  std::vector<CarveTable> tables = rig.buildTables(0.0);
+class PipelineAtHeight : public ::testing::TestWithParam<const char*> {
+ protected:
+  Config loadRoom() {
+    return loadConfig(folder_.write("room.yaml", testing::simRoomConfig("memq://", "", GetParam())));
+  }
+  TemporaryFolder folder_;
+};
 
+INSTANTIATE_TEST_SUITE_P(Columns, PipelineAtHeight, ::testing::Values("0", "0.3"),
+                         [](const auto& param_info) {
+                           return std::string(param_info.param) == "0" ? "FloorPoint" : "Columns30cm";
+                         });
+
+TEST_P(PipelineAtHeight, MapsArriveInOrderAndEqualTheReferenceFusionOfTheirFrames) {
+  const Config config = loadRoom();
+  MemoryNetwork network;
+  BusListener listener(network);
   std::mutex mutex;
   std::vector<DecodedMap> received;
   std::size_t undecodable = 0;
-  PipelineOptions options;
-  MapDecoder decoder;  // used only in the LCM thread, inside the handler
-  options.subscriptions.push_back({"OCCMAP_MAP", [&](const std::uint8_t* data, std::size_t size) {
-                                     const DecodedMap& map = decoder.decode(data, size);
-                                     std::lock_guard lock(mutex);
-                                     if (map.ok()) {
-                                       received.push_back(map);
-                                     } else {
-                                       ++undecodable;
-                                     }
-                                   }});
-  Pipeline pipeline(std::move(rig), std::move(tables), options);
+  MapDecoder decoder;  // used only in the listener's thread, inside the handler
+  listener.subscribe("OCCMAP_MAP", [&](const std::uint8_t* data, std::size_t size) {
+    const DecodedMap& map = decoder.decode(data, size);
+    std::lock_guard lock(mutex);
+    if (map.ok()) {
+      received.push_back(map);
+    } else {
+      ++undecodable;
+    }
+  });
+  listener.start();
+  Pipeline pipeline(prepareRig(config), network.connect());
   pipeline.start();
   // About a second at full speed; sanitizers slow the simulator down, so wait for the maps.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
   while (std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     std::lock_guard lock(mutex);
     if (received.size() >= 40) break;
   }
   pipeline.stop();
+  listener.stop();
 
   std::lock_guard lock(mutex);
   EXPECT_EQ(undecodable, 0u);
@@ -75,7 +95,7 @@ TEST(Pipeline, MapsArriveInOrderAndEqualTheReferenceFusionOfTheirFrames) {
   EXPECT_EQ(pipeline.mapsPublished(), received.size());
 
   // Re-render exactly the frames each map says it used, and fuse them the reference way.
-  const testing::SimRoomReference reference(config.map, 0.0);
+  const testing::SimRoomReference reference(config.map, config.fusion.column_height_m);
   std::size_t compared = 0, all_cameras = 0;
   for (std::size_t i = 0; i < received.size(); i += 5) {
     const DecodedMap& map = received[i];
@@ -99,45 +119,50 @@ std::size_t threadCount() {
 
 // Stopped at a random moment under full load, again and again: every thread it started is gone,
 // and every map fusion made was published and received (none left in the map buffers).
-TEST(Pipeline, ShutdownUnderLoadLeavesNoThreadAndLosesNoFusedMap) {
-  TemporaryFolder folder;
-  const auto file = folder.write("room.yaml", testing::simRoomConfig("memq://"));
-  const Config config = loadConfig(file);
-  Rig opened = Rig::open(config);
-  const std::vector<CarveTable> tables = opened.buildTables(0.0);
+TEST_P(PipelineAtHeight, ShutdownUnderLoadLeavesNoThreadAndLosesNoFusedMap) {
+  const Config config = loadRoom();
+  PreparedRig opened = prepareRig(config);
   const std::size_t threads_before = threadCount();
   std::mt19937 random(7);
   for (int trial = 0; trial < 12; ++trial) {
+    MemoryNetwork network;
     std::atomic<std::uint64_t> received{0};
-    PipelineOptions options;
-    options.subscriptions.push_back(
-        {"OCCMAP_MAP", [&](const std::uint8_t*, std::size_t) { ++received; }});
-    // Every trial opens the rig afresh: the pipeline owns its sources.
-    Pipeline pipeline(Rig::open(config), tables, options);
-    pipeline.start();
-    EXPECT_GT(threadCount(), threads_before);
-    std::this_thread::sleep_for(std::chrono::milliseconds(100 + random() % 300));
-    pipeline.stop();
-    EXPECT_EQ(threadCount(), threads_before) << "trial " << trial << ": a thread outlived stop()";
-    EXPECT_GT(pipeline.mapsFused(), 0u);
-    // The publisher sends the newest map; one it was too slow for is skipped and counted (none
-    // should be in process). Nothing else may go missing, least of all the last map at the stop.
-    EXPECT_EQ(pipeline.mapsPublished() + pipeline.mapsSkipped(), pipeline.mapsFused())
-        << "trial " << trial << ": a fused map was neither published nor counted as skipped";
-    EXPECT_EQ(received.load(), pipeline.mapsPublished()) << "trial " << trial;
+    std::size_t threads_with_listener = 0;
+    {
+      BusListener listener(network);
+      listener.subscribe("OCCMAP_MAP", [&](const std::uint8_t*, std::size_t) { ++received; });
+      listener.start();
+      threads_with_listener = threadCount();
+      // Every trial opens the rig afresh: the pipeline owns its sources.
+      Pipeline pipeline(PreparedRig{Rig::open(config), opened.tables, opened.column_height_m},
+                        network.connect());
+      pipeline.start();
+      EXPECT_GT(threadCount(), threads_with_listener);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100 + random() % 300));
+      pipeline.stop();
+      EXPECT_EQ(threadCount(), threads_with_listener)
+          << "trial " << trial << ": a thread outlived stop()";
+      listener.stop();
+      EXPECT_GT(pipeline.mapsFused(), 0u);
+      // The publisher sends the newest map; one it was too slow for is skipped and counted.
+      // Nothing else may go missing, least of all the last map at the stop.
+      EXPECT_EQ(pipeline.mapsPublished() + pipeline.mapsSkipped(), pipeline.mapsFused())
+          << "trial " << trial << ": a fused map was neither published nor counted as skipped";
+      EXPECT_EQ(received.load(), pipeline.mapsPublished()) << "trial " << trial;
+    }
+    EXPECT_EQ(threadCount(), threads_before) << "trial " << trial;
   }
 }
 
 // The hot path (capture -> fusion -> publish) allocates nothing once running, and neither does the
 // once-a-second status: over seconds of steady work at 30 frame sets a second, no operator new
-// from any thread. (LCM's C code uses malloc, which this does not see: only occmap's own code is
-// held to it.)
-TEST(Pipeline, RunningSteadilyAllocatesNothing) {
-  TemporaryFolder folder;
-  const Config config = loadConfig(folder.write("room.yaml", testing::simRoomConfig("memq://")));
-  Rig rig = Rig::open(config);
-  std::vector<CarveTable> tables = rig.buildTables(0.0);
-  Pipeline pipeline(std::move(rig), std::move(tables));
+// from any thread. LCM's memq:// is the bus, as in occmapd (LCM's C code uses malloc, which this
+// does not see: only occmap's own code is held to it).
+TEST_P(PipelineAtHeight, RunningSteadilyAllocatesNothing) {
+  const Config config = loadRoom();
+  auto bus = std::make_unique<LcmBus>("memq://");
+  ASSERT_TRUE(bus->good());
+  Pipeline pipeline(prepareRig(config), std::move(bus));
   pipeline.start();
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // warmed up, statuses sent
   long allocations = 0;
@@ -154,6 +179,78 @@ TEST(Pipeline, RunningSteadilyAllocatesNothing) {
   EXPECT_GE(maps, 20u) << "the pipeline should have been working meanwhile";
   EXPECT_EQ(allocations, 0) << allocations << " allocations (the largest " << largest
                             << " bytes) over " << maps << " maps and two statuses";
+}
+
+// A bus whose publish blocks once told to, as a send stuck in the kernel or a wedged network
+// driver would: the fault comes through the bus, not through a hook in the pipeline.
+class StuckBus final : public Bus {
+ public:
+  explicit StuckBus(std::unique_ptr<Bus> bus) : bus_(std::move(bus)) {}
+  bool publish(const std::string& channel, std::span<const std::uint8_t> message) override {
+    std::unique_lock lock(mutex_);
+    blocked_.wait(lock, [this] { return !stuck_; });
+    return bus_->publish(channel, message);
+  }
+  bool subscribe(const std::string& channel, Handler handler) override {
+    return bus_->subscribe(channel, std::move(handler));
+  }
+  int fileno() override { return bus_->fileno(); }
+  int handleTimeout(int timeout_ms) override { return bus_->handleTimeout(timeout_ms); }
+  void setStuck(bool stuck) {
+    {
+      const std::lock_guard lock(mutex_);
+      stuck_ = stuck;
+    }
+    blocked_.notify_all();
+  }
+
+ private:
+  std::unique_ptr<Bus> bus_;
+  std::mutex mutex_;
+  std::condition_variable blocked_;
+  bool stuck_ = false;
+};
+
+TEST(Pipeline, APublisherStuckInASendStopsTheWatchdogPingsAndTheyResumeWhenItReturns) {
+  TemporaryFolder folder;
+  const Config config = loadConfig(folder.write("room.yaml", testing::simRoomConfig()));
+  MemoryNetwork network;
+  auto stuck = std::make_unique<StuckBus>(network.connect());
+  StuckBus& bus = *stuck;
+  Pipeline pipeline(prepareRig(config), std::move(stuck));
+  pipeline.start();
+  Liveness liveness;
+  // Looks as occmapd's main loop does, every `tick`, until `pings` pings or the time is up.
+  auto pingsWithin = [&](std::chrono::milliseconds tick, int looks) {
+    int pings = 0;
+    for (int i = 0; i < looks; ++i) {
+      std::this_thread::sleep_for(tick);
+      pings += liveness.alive(pipeline.mapsFused(), pipeline.publisherRounds());
+    }
+    return pings;
+  };
+  EXPECT_GE(pingsWithin(std::chrono::milliseconds(200), 10), 3)
+      << "a healthy pipeline should be pinged nearly every look";
+  bus.setStuck(true);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the round under way ends in it
+  (void)liveness.alive(pipeline.mapsFused(), pipeline.publisherRounds());
+  const std::uint64_t maps = pipeline.mapsFused();
+  EXPECT_EQ(pingsWithin(std::chrono::milliseconds(200), 10), 0)
+      << "pings went on although the publisher was stuck in a send";
+  EXPECT_GT(pipeline.mapsFused(), maps) << "fusion itself went on";
+  bus.setStuck(false);
+  EXPECT_GE(pingsWithin(std::chrono::milliseconds(200), 10), 3) << "pings should resume";
+  pipeline.stop();
+}
+
+TEST(Liveness, PingsOnlyWhenBothFusionAndThePublisherMoved) {
+  Liveness liveness;
+  EXPECT_TRUE(liveness.alive(1, 1));
+  EXPECT_FALSE(liveness.alive(1, 2)) << "no new map: fusion stalled";
+  EXPECT_FALSE(liveness.alive(2, 1)) << "no new round: the publisher is stuck";
+  EXPECT_TRUE(liveness.alive(2, 2));
+  EXPECT_FALSE(liveness.alive(2, 2));
+  EXPECT_TRUE(liveness.alive(5, 9));
 }
 
 }  // namespace

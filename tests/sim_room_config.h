@@ -8,9 +8,11 @@ namespace occmap::testing {
 // A small simulated rig for daemon tests: the paper's room, four cameras, a 256 x 256 map of 4 cm
 // cells (fast to build), LCM in process memory unless told otherwise.
 inline std::string simRoomConfig(const std::string& lcm_url = "memq://",
-                                 const std::string& extra_fusion = "") {
+                                 const std::string& extra_fusion = "",
+                                 const std::string& column_height_m = "0") {
   return "map: {origin_m: [-0.62, -1.87], cell_size_m: 0.04, width: 256, height: 256}\n"
-         "fusion: {threshold: 20, column_height_m: 0" +
+         "fusion: {threshold: 20, column_height_m: " +
+         column_height_m +
          extra_fusion +
          "}\n"
          "transport: {lcm_url: \"" +

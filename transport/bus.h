@@ -1,0 +1,45 @@
+#pragma once
+// The message bus a program publishes on and listens to (after Drake's DrakeLcmInterface): raw
+// bytes on named channels. Two implementations: LcmBus (transport/lcm_bus.h), the real one, and
+// MemoryBus (transport/memory_bus.h), in memory, for tests that need no network and want to put
+// faults in between. Messages are encoded and decoded by the caller (map_codec.h, the lcm-gen
+// types), so that a publisher encodes into one reused buffer and a receiver checks what it decodes.
+//
+// Threads: a Bus is used from ONE thread, the one that publishes, calls handleTimeout() and so
+// runs the handlers.
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+
+namespace occmap {
+
+class Bus {
+ public:
+  // A received message: the bytes as published, and when they were received (us since the Unix
+  // epoch). The bytes are valid during the call only.
+  using Handler =
+      std::function<void(const std::uint8_t* data, std::size_t size, std::int64_t recv_utime)>;
+
+  Bus() = default;
+  virtual ~Bus() = default;
+  Bus(const Bus&) = delete;
+  Bus& operator=(const Bus&) = delete;
+
+  // Sends one message; false on any error, which the caller counts (a full socket buffer, no
+  // route). Allocates nothing once warm: for the publisher's hot path.
+  virtual bool publish(const std::string& channel, std::span<const std::uint8_t> message) = 0;
+  // Calls `handler` for every message on `channel`; handlers run inside handleTimeout().
+  virtual bool subscribe(const std::string& channel, Handler handler) = 0;
+  // A file descriptor that becomes readable when a message is waiting (for poll()), or -1.
+  virtual int fileno() = 0;
+  // Waits up to `timeout_ms` for a message and dispatches it: > 0 handled, 0 timed out, < 0 error.
+  virtual int handleTimeout(int timeout_ms) = 0;
+};
+
+// Where status requests go: the status channel's name + "_REQUEST" (lcmtypes/status_request_t.lcm).
+std::string statusRequestChannel(const std::string& status_channel);
+
+}  // namespace occmap

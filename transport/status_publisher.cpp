@@ -1,0 +1,89 @@
+#include "transport/status_publisher.h"
+
+#include <algorithm>
+
+#include "base/clock.h"
+#include "transport/control_message.h"
+
+namespace occmap {
+
+StatusPublisher::StatusPublisher(std::string status_channel, std::size_t cameras,
+                                 std::int64_t now_ns)
+    : status_channel_(std::move(status_channel)),
+      control_status_channel_(controlStatusChannel(status_channel_)),
+      samples_(kRateSamples, Sample{now_ns, 0, std::vector<std::uint64_t>(cameras)}) {}
+
+void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t request_id,
+                              std::int64_t now_ns) {
+  const std::size_t cameras = report.cameras.size();
+  const Sample& oldest = samples_[oldest_];
+  const double window_s = std::max(1e-3, static_cast<double>(now_ns - oldest.ns) / 1e9);
+  status_.utime = hostTimeMicroseconds();
+  status_.request_id = request_id;
+  status_.hostname = report.hostname;
+  status_.config_file = report.config_file;
+  status_.state = static_cast<std::int8_t>(report.state);
+  status_.uptime_s = report.uptime_s;
+  status_.maps_published = static_cast<std::int64_t>(report.maps_published);
+  status_.publish_errors = static_cast<std::int64_t>(report.publish_errors + errors_);
+  status_.maps_per_s = static_cast<double>(report.maps_published - oldest.published) / window_s;
+  status_.fusion_p50_ms = report.fusion_p50_ms;
+  status_.fusion_p99_ms = report.fusion_p99_ms;
+  status_.num_cameras = static_cast<std::int16_t>(cameras);
+  status_.cameras.resize(cameras);
+  for (std::size_t k = 0; k < cameras; ++k) {
+    const CameraReport& c = report.cameras[k];
+    occmap::camera_status_t& s = status_.cameras[k];
+    s.name = c.name;
+    s.source = c.source;
+    s.state = static_cast<std::int8_t>(c.state);
+    s.frames_in = static_cast<std::int64_t>(c.frames_in);
+    s.frames_dropped = static_cast<std::int64_t>(c.frames_dropped);
+    s.fps = static_cast<double>(c.frames_in - oldest.frames[k]) / window_s;
+    s.last_capture_utime = c.last_capture_utime;
+    s.frames_incomplete = c.frames_incomplete;
+    s.missing_packets = c.missing_packets;
+    s.resent_packets = c.resent_packets;
+    s.underruns = c.underruns;
+    s.reconnects = c.reconnects;
+    s.last_error = c.last_error;
+  }
+  if (request_id < 0) {
+    // The oldest sample makes way for this one (the ring starts with copies of the start).
+    Sample& sample = samples_[oldest_];
+    sample.ns = now_ns;
+    sample.published = report.maps_published;
+    for (std::size_t k = 0; k < cameras; ++k) sample.frames[k] = report.cameras[k].frames_in;
+    oldest_ = (oldest_ + 1) % kRateSamples;
+  }
+  buffer_.resize(static_cast<std::size_t>(status_.getEncodedSize()));
+  status_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  if (!bus.publish(status_channel_, buffer_)) ++errors_;
+
+  // The same utime, request_id and hostname pair the two.
+  const ControlCounts& control = report.control;
+  control_status_.utime = status_.utime;
+  control_status_.request_id = request_id;
+  control_status_.hostname = report.hostname;
+  control_status_.control_enabled = report.control_enabled;
+  control_status_.disabled = static_cast<std::int64_t>(control.disabled);
+  control_status_.malformed = static_cast<std::int64_t>(control.malformed);
+  control_status_.bad_mac = static_cast<std::int64_t>(control.bad_mac);
+  control_status_.stale = static_cast<std::int64_t>(control.stale);
+  control_status_.refused = static_cast<std::int64_t>(control.refused);
+  control_status_.accepted = static_cast<std::int64_t>(control.accepted);
+  control_status_.num_cameras = static_cast<std::int16_t>(cameras);
+  control_status_.camera_name.resize(cameras);
+  control_status_.camera_threshold.resize(cameras);
+  control_status_.camera_background_utime.resize(cameras);
+  for (std::size_t k = 0; k < cameras; ++k) {
+    control_status_.camera_name[k] = report.cameras[k].name;
+    control_status_.camera_threshold[k] = report.cameras[k].threshold;
+    control_status_.camera_background_utime[k] = report.cameras[k].background_utime;
+  }
+  buffer_.resize(static_cast<std::size_t>(control_status_.getEncodedSize()));
+  control_status_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  if (!bus.publish(control_status_channel_, buffer_)) ++errors_;
+}
+
+}  // namespace occmap
