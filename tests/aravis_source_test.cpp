@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "base/clock.h"
+#include "bus_listener.h"
 #include "capture/image_file.h"
 #include "capture/live_source.h"
 #include "capture/sim/renderer.h"
@@ -26,6 +27,7 @@
 #include "sim_reference.h"
 #include "temporary_folder.h"
 #include "transport/map_codec.h"
+#include "transport/memory_bus.h"
 #include "tsai_xml.h"
 
 namespace occmap {
@@ -319,15 +321,16 @@ TEST_F(FakeCamera, ThePipelinesMapsEqualTheReferenceFusionOfTheImagesTheCamerasS
 
   std::mutex mutex;
   std::vector<DecodedMap> received;
-  PipelineOptions pipeline_options;
+  MemoryNetwork network;
+  testing::BusListener listener(network);
   MapDecoder decoder;
-  pipeline_options.subscriptions.push_back(
-      {"OCCMAP_MAP", [&](const std::uint8_t* data, std::size_t size) {
-         const DecodedMap& map = decoder.decode(data, size);
-         std::lock_guard lock(mutex);
-         if (map.ok()) received.push_back(map);
-       }});
-  Pipeline pipeline(std::move(rig), std::move(tables), pipeline_options);
+  listener.subscribe("OCCMAP_MAP", [&](const std::uint8_t* data, std::size_t size) {
+    const DecodedMap& map = decoder.decode(data, size);
+    std::lock_guard lock(mutex);
+    if (map.ok()) received.push_back(map);
+  });
+  listener.start();
+  Pipeline pipeline(PreparedRig{std::move(rig), std::move(tables), 0.0}, network.connect());
   pipeline.start();
   const auto deadline = std::chrono::steady_clock::now() + 60s;
   while (std::chrono::steady_clock::now() < deadline) {
@@ -336,6 +339,7 @@ TEST_F(FakeCamera, ThePipelinesMapsEqualTheReferenceFusionOfTheImagesTheCamerasS
     if (received.size() >= 40) break;
   }
   pipeline.stop();
+  listener.stop();
 
   std::lock_guard lock(mutex);
   ASSERT_GE(received.size(), 40u);

@@ -20,6 +20,7 @@
 #include <unistd.h>
 
 #include "base/clock.h"
+#include "bus_listener.h"
 #include "capture/files_source.h"
 #include "capture/image_file.h"
 #include "child_process.h"
@@ -29,6 +30,7 @@
 #include "notify_listener.h"
 #include "sim_room_config.h"
 #include "transport/map_codec.h"
+#include "transport/memory_bus.h"
 #include "tsai_xml.h"
 
 namespace occmap {
@@ -383,28 +385,30 @@ struct Heard {
   std::optional<occmap::status_t> status;
   std::size_t maps = 0;
   std::size_t maps_with_free_cells = 0;
-  MapDecoder decoder;  // in the LCM thread only
+  MapDecoder decoder;  // in the listener's thread only
+  MemoryNetwork network;
+  testing::BusListener listener{network};  // last: it stops before what its handlers write goes
 };
 
+// Listens on `heard`'s network; the options the pipeline under test runs with.
 PipelineOptions listenTo(Heard& heard) {
   PipelineOptions options;
   options.status_period = 200ms;
-  options.subscriptions.push_back(
-      {"OCCMAP_STATUS", [&heard](const std::uint8_t* data, std::size_t size) {
-         occmap::status_t status;
-         if (status.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
-         const std::lock_guard lock(heard.mutex);
-         heard.status = status;
-       }});
-  options.subscriptions.push_back(
-      {"OCCMAP_MAP", [&heard](const std::uint8_t* data, std::size_t size) {
-         const DecodedMap& map = heard.decoder.decode(data, size);
-         const std::lock_guard lock(heard.mutex);
-         ++heard.maps;
-         if (map.ok() && std::count(map.cells.begin(), map.cells.end(), 0) > 0) {
-           ++heard.maps_with_free_cells;
-         }
-       }});
+  heard.listener.subscribe("OCCMAP_STATUS", [&heard](const std::uint8_t* data, std::size_t size) {
+    occmap::status_t status;
+    if (status.decode(data, 0, static_cast<int>(size)) != static_cast<int>(size)) return;
+    const std::lock_guard lock(heard.mutex);
+    heard.status = status;
+  });
+  heard.listener.subscribe("OCCMAP_MAP", [&heard](const std::uint8_t* data, std::size_t size) {
+    const DecodedMap& map = heard.decoder.decode(data, size);
+    const std::lock_guard lock(heard.mutex);
+    ++heard.maps;
+    if (map.ok() && std::count(map.cells.begin(), map.cells.end(), 0) > 0) {
+      ++heard.maps_with_free_cells;
+    }
+  });
+  heard.listener.start();
   return options;
 }
 
@@ -463,7 +467,8 @@ TEST(BadFrames, FramesOfAnotherSizeAndDeviceErrorsAreDroppedAndCountedInTheStatu
   Rig rig = Rig::assemble(config, std::move(cameras));
   std::vector<CarveTable> tables = rig.buildTables(0.0);
   Heard heard;
-  Pipeline pipeline(std::move(rig), std::move(tables), listenTo(heard));
+  Pipeline pipeline(PreparedRig{std::move(rig), std::move(tables), 0.0}, heard.network.connect(),
+                    listenTo(heard));
   pipeline.start();
   const bool counted = waitFor(heard, [](const Heard& h) {
     return h.status && h.status->cameras.size() == 1 && h.status->cameras[0].frames_dropped >= 10;
@@ -494,7 +499,8 @@ TEST(BadFrames, TheDaemonDropsBadImagesFromAFilesSourceCountsThemAndStreamsOn) {
   std::vector<CarveTable> tables = rig.buildTables(0.0);
   Heard heard;
   {
-    Pipeline pipeline(std::move(rig), std::move(tables), listenTo(heard));
+    Pipeline pipeline(PreparedRig{std::move(rig), std::move(tables), 0.0}, heard.network.connect(),
+                      listenTo(heard));
     pipeline.start();
     const bool counted = waitFor(heard, [](const Heard& h) {
       return h.status && h.status->cameras[0].frames_dropped >= 8 &&
@@ -581,7 +587,8 @@ TEST(FloorBehindTheCamera, IsAWarningAndAnEmptyTableAndTheOtherCamerasMakeTheMap
   // The pipeline runs with it: maps keep coming, carved by the other two.
   Heard heard;
   {
-    Pipeline pipeline(std::move(rig), std::move(tables), listenTo(heard));
+    Pipeline pipeline(PreparedRig{std::move(rig), std::move(tables), 0.3}, heard.network.connect(),
+                      listenTo(heard));
     pipeline.start();
     EXPECT_TRUE(waitFor(heard, [](const Heard& h) { return h.maps_with_free_cells >= 10; }));
     pipeline.stop();

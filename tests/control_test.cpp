@@ -24,6 +24,7 @@
 #include <sys/stat.h>
 
 #include "allocation_counter.h"
+#include "bus_listener.h"
 #include "capture/image_file.h"
 #include "command_runner.h"
 #include "config/config.h"
@@ -37,6 +38,7 @@
 #include "transport/control_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
+#include "transport/memory_bus.h"
 #include "transport/replay_window.h"
 #include "transport/status_message.h"
 
@@ -97,73 +99,65 @@ class Daemon {
     }
     const auto file = folder_.write("room.yaml", cameras + control);
     const Config config = loadConfig(file);
-    Rig rig = Rig::open(config);
-    std::vector<CarveTable> tables = rig.buildTables(0.0);
     PipelineOptions options;
     if (with_state_directory) {
       std::filesystem::create_directories(folder_ / "state");
       options.state_directory = folder_ / "state";
     }
-    options.subscriptions.push_back(
-        {"OCCMAP_MAP", [this](const std::uint8_t* data, std::size_t size) {
-           if (quiet_.load()) return;
-           const DecodedMap& map = decoder_.decode(data, size);
-           if (!map.ok()) return;
-           std::lock_guard lock(mutex_);
-           latest_cells_ = map.cells;
-           ++maps_;
-         }});
-    options.subscriptions.push_back(
-        {"OCCMAP_STATUS", [this](const std::uint8_t* data, std::size_t size) {
-           if (quiet_.load()) return;
-           std::optional<occmap::status_t> status = decodeStatus(data, size);
-           std::lock_guard lock(mutex_);
-           if (status) status_ = std::move(status);
-         }});
-    options.subscriptions.push_back(
-        {"OCCMAP_STATUS_CONTROL_STATUS", [this](const std::uint8_t* data, std::size_t size) {
-           if (quiet_.load()) return;
-           std::optional<occmap::control_status_t> decoded = decodeControlStatus(data, size);
-           std::lock_guard lock(mutex_);
-           if (decoded) control_status_ = std::move(decoded);
-         }});
-    options.subscriptions.push_back(
-        {"OCCMAP_STATUS_CONTROL_REPLY", [this](const std::uint8_t* data, std::size_t size) {
-           if (quiet_.load()) return;
-           std::optional<occmap::control_reply_t> reply = decodeControlReply(key_, data, size);
-           std::lock_guard lock(mutex_);
-           if (reply) {
-             replies_.push_back(*reply);
-           } else {
-             ++unverified_replies_;
-           }
-         }});
-    options.each_lcm_round = [this](LcmBus& bus) {
+    listener_.subscribe("OCCMAP_MAP", [this](const std::uint8_t* data, std::size_t size) {
+      if (quiet_.load()) return;
+      const DecodedMap& map = decoder_.decode(data, size);
+      if (!map.ok()) return;
       std::lock_guard lock(mutex_);
-      for (; sent_ < outbox_.size(); ++sent_) bus.publish(channel_, outbox_[sent_]);
-    };
-    pipeline_ = std::make_unique<Pipeline>(std::move(rig), std::move(tables), options);
+      latest_cells_ = map.cells;
+      ++maps_;
+    });
+    listener_.subscribe("OCCMAP_STATUS", [this](const std::uint8_t* data, std::size_t size) {
+      if (quiet_.load()) return;
+      std::optional<occmap::status_t> status = decodeStatus(data, size);
+      std::lock_guard lock(mutex_);
+      if (status) status_ = std::move(status);
+    });
+    listener_.subscribe(
+        "OCCMAP_STATUS_CONTROL_STATUS", [this](const std::uint8_t* data, std::size_t size) {
+          if (quiet_.load()) return;
+          std::optional<occmap::control_status_t> decoded = decodeControlStatus(data, size);
+          std::lock_guard lock(mutex_);
+          if (decoded) control_status_ = std::move(decoded);
+        });
+    listener_.subscribe(
+        "OCCMAP_STATUS_CONTROL_REPLY", [this](const std::uint8_t* data, std::size_t size) {
+          if (quiet_.load()) return;
+          std::optional<occmap::control_reply_t> reply = decodeControlReply(key_, data, size);
+          std::lock_guard lock(mutex_);
+          if (reply) {
+            replies_.push_back(*reply);
+          } else {
+            ++unverified_replies_;
+          }
+        });
+    // Room for the floods some tests send and what the daemon answers meanwhile, so that neither
+    // side's bus allocates while a test counts allocations.
+    listener_.reserve(kRoom, kRoomBytes);
+    listener_.start();
+    std::unique_ptr<MemoryBus> bus = network_.connect();
+    bus->reserve(kRoom, kRoomBytes);
+    pipeline_ = std::make_unique<Pipeline>(prepareRig(config), std::move(bus), options);
     pipeline_->start();
   }
-  ~Daemon() { pipeline_->stop(); }
+  ~Daemon() {
+    pipeline_->stop();
+    listener_.stop();
+  }
 
   const ControlKey& key() const { return key_; }
   Pipeline& pipeline() { return *pipeline_; }
   const TemporaryFolder& folder() const { return folder_; }
 
-  // Queued here, published by the daemon's LCM thread at its next round.
-  void send(std::vector<std::uint8_t> bytes) {
-    std::lock_guard lock(mutex_);
-    outbox_.push_back(std::move(bytes));
-  }
+  // Sent from this side's own program on the bus, at its next round.
+  void send(std::vector<std::uint8_t> bytes) { listener_.send(channel_, std::move(bytes)); }
   // While quiet, this side decodes nothing it hears (decoding allocates; the daemon must not).
   void setQuiet(bool quiet) { quiet_.store(quiet); }
-  // Room for this many messages, so that sending those allocates nothing.
-  void reserveOutbox(std::size_t messages) {
-    std::lock_guard lock(mutex_);
-    outbox_.reserve(outbox_.size() + messages);
-  }
-
   bool waitUntil(const std::function<bool()>& done, std::chrono::milliseconds timeout = 20s) {
     const auto end = std::chrono::steady_clock::now() + timeout;
     while (std::chrono::steady_clock::now() < end) {
@@ -227,9 +221,13 @@ class Daemon {
   }
 
  private:
+  static constexpr std::size_t kRoom = 256;
+  static constexpr std::size_t kRoomBytes = 128 * 1024;
   TemporaryFolder folder_;
+  MemoryNetwork network_;
+  testing::BusListener listener_{network_};
   ControlKey key_;
-  MapDecoder decoder_;  // LCM thread only
+  MapDecoder decoder_;  // the listener's thread only
   std::mutex mutex_;
   std::vector<std::uint8_t> latest_cells_;
   std::size_t maps_ = 0;
@@ -237,8 +235,6 @@ class Daemon {
   std::optional<occmap::control_status_t> control_status_;
   std::vector<occmap::control_reply_t> replies_;
   std::size_t unverified_replies_ = 0;
-  std::vector<std::vector<std::uint8_t>> outbox_;
-  std::size_t sent_ = 0;
   std::atomic<bool> quiet_{false};
   const std::string channel_ = "OCCMAP_STATUS_CONTROL";  // made once: publishing allocates nothing
   std::unique_ptr<Pipeline> pipeline_;
@@ -483,7 +479,6 @@ TEST(ControlRequests, HandlingThemAllocatesNothing) {
     messages.push_back(signedRequest(daemon.key(), kSetThreshold, "c2", value));
   }
   messages.push_back(signedRequest(daemon.key(), kSetThreshold, "nowhere", 30));
-  daemon.reserveOutbox(messages.size());
   long allocations = 0;
   daemon.setQuiet(true);
   std::this_thread::sleep_for(100ms);  // what the LCM thread was decoding for this side is done

@@ -67,6 +67,24 @@ bool MemoryBus::subscribe(const std::string& channel, Handler handler) {
   return true;
 }
 
+void MemoryBus::reserve(std::size_t messages, std::size_t bytes) {
+  const std::lock_guard lock(mutex_);
+  if (messages > queue_.size()) {
+    std::vector<Message> grown(messages);
+    for (std::size_t i = 0; i < count_; ++i) {
+      grown[i] = std::move(queue_[(head_ + i) % queue_.size()]);
+    }
+    queue_ = std::move(grown);
+    head_ = 0;
+  }
+  for (Message* message = queue_.data(); message != queue_.data() + queue_.size(); ++message) {
+    message->bytes.reserve(bytes);
+    message->channel.reserve(64);
+  }
+  in_hand_.bytes.reserve(bytes);
+  in_hand_.channel.reserve(64);
+}
+
 std::size_t MemoryBus::pending() const {
   const std::lock_guard lock(mutex_);
   return count_;
