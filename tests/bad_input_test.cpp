@@ -364,8 +364,25 @@ TEST(BadInputExitCodes, AConfigFileWithoutReadPermissionIsExitTwoSayingSo) {
     if (runCommand({"sh", "-c", "command -v setpriv"}).exit_code != 0) {
       GTEST_SKIP() << "running as root without setpriv (util-linux) to become another user";
     }
-    // As nobody, whose view of the folder is that of any other user.
+    // As nobody, whose view of the folder is that of any other user. The clone may be where
+    // nobody cannot go (root's home, mode 700): occmapd, and the sanitizer's suppressions it
+    // reads at start (TSAN_OPTIONS), are copied into the test's folder first, so that only the
+    // config is out of nobody's reach.
     fs::permissions(site.folder.path(), fs::perms::others_exec, fs::perm_options::add);
+    const fs::path occmapd = site.folder / "occmapd";
+    fs::copy_file(kOccmapd, occmapd);
+    command[0] = occmapd.string();
+    std::string tsan_options = std::getenv("TSAN_OPTIONS") ? std::getenv("TSAN_OPTIONS") : "";
+    if (const auto at = tsan_options.find("suppressions="); at != std::string::npos) {
+      const auto from = at + std::string("suppressions=").size();
+      const auto to = tsan_options.find(':', from);
+      const fs::path suppressions = site.folder / "tsan.supp";
+      fs::copy_file(tsan_options.substr(from, to - from), suppressions);
+      fs::permissions(suppressions, fs::perms::others_read, fs::perm_options::add);
+      tsan_options.replace(from, to == std::string::npos ? std::string::npos : to - from,
+                           suppressions.string());
+      command.insert(command.begin(), {"env", "TSAN_OPTIONS=" + tsan_options});
+    }
     command.insert(command.begin(),
                    {"setpriv", "--reuid=nobody", "--regid=nogroup", "--clear-groups", "--"});
   }

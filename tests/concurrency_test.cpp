@@ -1,5 +1,6 @@
-// The lock-free parts of the pipeline: the SPSC ring and the triple buffer, with two threads and a
-// known sum. Run under ThreadSanitizer too (scripts/test), which checks the memory ordering.
+// The lock-free part of the pipeline, the triple buffer (each camera's newest frame, the map for
+// the publisher), with two threads. Run under ThreadSanitizer too (scripts/test), which checks the
+// memory ordering.
 #include <atomic>
 #include <cstdint>
 #include <numeric>
@@ -8,98 +9,30 @@
 
 #include <gtest/gtest.h>
 
-#include "core/spsc_ring.h"
 #include "core/triple_buffer.h"
 
 namespace occmap {
 namespace {
 
-// A slot that counts how many exist, so the test sees the ring never makes or destroys one in use.
-struct CountedSlot {
-  static inline std::atomic<int> alive{0};
-  std::vector<std::uint64_t> payload;
-  std::uint64_t sequence = 0;
-  explicit CountedSlot(std::size_t n) : payload(n) { ++alive; }
-  CountedSlot(CountedSlot&& other) noexcept
-      : payload(std::move(other.payload)), sequence(other.sequence) {
-    ++alive;
-  }
-  CountedSlot(const CountedSlot&) = delete;
-  CountedSlot& operator=(const CountedSlot&) = delete;
-  ~CountedSlot() { --alive; }
-};
-
-TEST(SpscRing, FillsToCapacityAndEmptiesInOrder) {
-  SpscRing<int> ring(3, [] { return 0; });
-  EXPECT_EQ(ring.capacity(), 3u);
-  EXPECT_EQ(ring.front(), nullptr);
-  for (int i = 0; i < 3; ++i) {
-    int* slot = ring.writeSlot();
-    ASSERT_NE(slot, nullptr);
-    *slot = i;
-    ring.commitWrite();
-  }
-  EXPECT_EQ(ring.writeSlot(), nullptr) << "full: the producer must drop";
-  EXPECT_EQ(ring.size(), 3u);
-  for (int i = 0; i < 3; ++i) {
-    ASSERT_NE(ring.front(), nullptr);
-    EXPECT_EQ(*ring.front(), i);
-    ring.pop();
-  }
-  EXPECT_EQ(ring.front(), nullptr);
-  EXPECT_NE(ring.writeSlot(), nullptr);
-}
-
-TEST(SpscRing, TwoThreadsPassEveryItemIntactAndInOrder) {
-  constexpr std::uint64_t kItems = 200000;
-  constexpr std::size_t kPayload = 64;
-  {
-    SpscRing<CountedSlot> ring(4, [] { return CountedSlot(kPayload); });
-    const int slots = CountedSlot::alive.load();
-    EXPECT_EQ(slots, 5);
-    std::uint64_t produced_sum = 0;
-    std::uint64_t dropped = 0;
-    std::thread producer([&] {
-      for (std::uint64_t i = 1; i <= kItems;) {
-        CountedSlot* slot = ring.writeSlot();
-        if (!slot) {
-          ++dropped;  // a real capture thread drops and counts; here we retry to check the sum
-          std::this_thread::yield();
-          continue;
-        }
-        slot->sequence = i;
-        for (std::size_t k = 0; k < kPayload; ++k) slot->payload[k] = i * 1000003 + k;
-        produced_sum += i;
-        ring.commitWrite();
-        ++i;
-      }
-    });
-    std::uint64_t consumed_sum = 0;
-    std::uint64_t expected = 1;
-    bool intact = true;
-    while (expected <= kItems) {
-      CountedSlot* slot = ring.front();
-      if (!slot) {
-        std::this_thread::yield();
-        continue;
-      }
-      intact = intact && slot->sequence == expected;
-      for (std::size_t k = 0; k < kPayload; ++k) {
-        intact = intact && slot->payload[k] == slot->sequence * 1000003 + k;
-      }
-      consumed_sum += slot->sequence;
-      ring.pop();
-      ++expected;
-    }
-    producer.join();
-    EXPECT_TRUE(intact) << "an item arrived torn or out of order";
-    EXPECT_EQ(consumed_sum, produced_sum);
-    EXPECT_EQ(consumed_sum, kItems * (kItems + 1) / 2);
-    EXPECT_EQ(CountedSlot::alive.load(), slots) << "the ring made or destroyed slots while in use";
-    std::printf("producer found the ring full %llu times\n",
-                static_cast<unsigned long long>(dropped));
-  }
-  EXPECT_EQ(CountedSlot::alive.load(), 0);
+// Each camera's newest frame and the map handed to the publisher: when the reader is behind, the
+// oldest buffer gives way, and the writer is told so (counted as overtaken, or skipped).
+TEST(TripleBuffer, WhenTheReaderIsBehindTheOldestGivesWayAndTheWriterIsTold) {
+  TripleBuffer<int> buffers(0, 0, 0);
+  EXPECT_FALSE(buffers.takeLatest()) << "nothing published yet";
+  buffers.writeBuffer() = 1;
+  EXPECT_FALSE(buffers.publish()) << "nothing was overwritten";
+  buffers.writeBuffer() = 2;
+  EXPECT_TRUE(buffers.publish()) << "1 was never taken: it gave way to 2";
+  buffers.writeBuffer() = 3;
+  EXPECT_TRUE(buffers.publish());
+  ASSERT_TRUE(buffers.takeLatest());
+  EXPECT_EQ(buffers.readBuffer(), 3) << "the reader gets the newest, never an older one";
+  EXPECT_FALSE(buffers.takeLatest()) << "nothing newer since";
+  EXPECT_EQ(buffers.readBuffer(), 3) << "the buffer taken stays the reader's";
+  buffers.writeBuffer() = 4;
+  EXPECT_FALSE(buffers.publish()) << "3 was taken: nothing given way";
+  ASSERT_TRUE(buffers.takeLatest());
+  EXPECT_EQ(buffers.readBuffer(), 4);
 }
 
 TEST(TripleBuffer, ReaderAlwaysGetsAWholeBufferAndNeverGoesBack) {

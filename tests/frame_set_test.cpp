@@ -1,13 +1,15 @@
 // The fusion thread's policies, with time passed in by hand (no sleep): when a frame set is fused
 // (max_wait_ms, the heartbeat) and when a camera is starting, streaming or down (core/frame_set.h,
 // core/camera_health.h).
+#include "core/frame_set.h"
+
 #include <array>
 #include <cstdint>
 
 #include <gtest/gtest.h>
 
 #include "core/camera_health.h"
-#include "core/frame_set.h"
+#include "core/pacing.h"
 
 namespace occmap {
 namespace {
@@ -143,6 +145,37 @@ TEST(CameraHealth, AFlappingCameraIsDownWhileLostAndUpWithItsFirstNewFrame) {
   now += 50 * kMs;
   health.frameArrived(now);
   EXPECT_EQ(health.state(now), kUp);
+}
+
+TEST(FramePacer, PacesAtTheRateAndStartsAgainFromNowWhenFarBehind) {
+  FramePacer pacer(50.0, 0);  // 20 ms
+  EXPECT_EQ(pacer.next(0), 0);
+  EXPECT_EQ(pacer.next(1 * kMs), 20 * kMs);
+  EXPECT_EQ(pacer.next(21 * kMs), 40 * kMs) << "a little late: the rate holds";
+  EXPECT_EQ(pacer.next(55 * kMs), 60 * kMs);
+  EXPECT_EQ(pacer.next(500 * kMs), 500 * kMs) << "far behind: no burst to catch up";
+  EXPECT_EQ(pacer.next(501 * kMs), 520 * kMs);
+}
+
+TEST(ReconnectBackoff, WaitsLongerAfterEachFailedTryUpToASecond) {
+  ReconnectBackoff backoff;
+  backoff.lost(0);
+  EXPECT_FALSE(backoff.due(99 * kMs));
+  EXPECT_TRUE(backoff.due(100 * kMs));
+  std::int64_t now = 100 * kMs;
+  std::int64_t waits[6];
+  for (std::int64_t& wait : waits) {
+    backoff.failed(now);
+    wait = backoff.nextTryNs() - now;
+    now = backoff.nextTryNs();
+  }
+  EXPECT_EQ(waits[0], 200 * kMs);
+  EXPECT_EQ(waits[1], 400 * kMs);
+  EXPECT_EQ(waits[2], 800 * kMs);
+  EXPECT_EQ(waits[3], 1000 * kMs);
+  EXPECT_EQ(waits[5], 1000 * kMs);
+  backoff.lost(now);  // back, then lost again: the short wait first
+  EXPECT_EQ(backoff.nextTryNs() - now, 100 * kMs);
 }
 
 }  // namespace

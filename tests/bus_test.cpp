@@ -1,0 +1,105 @@
+// The bus's parts without a network: the in-memory bus the tests put between programs, and the
+// rate at which status requests are answered, with time passed in (transport/).
+#include <cstdint>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <occmap/status_request_t.hpp>
+
+#include "transport/memory_bus.h"
+#include "transport/status_requests.h"
+
+namespace occmap {
+namespace {
+
+std::vector<std::uint8_t> bytes(std::initializer_list<std::uint8_t> values) { return values; }
+
+TEST(MemoryBus, EveryBusSubscribedToAChannelHearsEachMessageInOrderIncludingItsSender) {
+  MemoryNetwork network;
+  auto a = network.connect();
+  auto b = network.connect();
+  auto c = network.connect();
+  std::vector<std::uint8_t> heard_a, heard_b;
+  a->subscribe("MAPS", [&](const std::uint8_t* d, std::size_t n, std::int64_t utime) {
+    heard_a.insert(heard_a.end(), d, d + n);
+    EXPECT_GT(utime, 0) << "a receive time, as LCM gives";
+  });
+  b->subscribe("MAPS", [&](const std::uint8_t* d, std::size_t n, std::int64_t) {
+    heard_b.insert(heard_b.end(), d, d + n);
+  });
+  b->subscribe("OTHER", [&](const std::uint8_t*, std::size_t, std::int64_t) {
+    ADD_FAILURE() << "a message on MAPS reached a handler of OTHER";
+  });
+  for (std::uint8_t i = 0; i < 100; ++i) EXPECT_TRUE(a->publish("MAPS", bytes({i, i})));
+  EXPECT_TRUE(c->publish("NOBODY", bytes({7})));
+  EXPECT_EQ(c->pending(), 0u) << "c subscribed to nothing";
+  EXPECT_EQ(b->pending(), 100u) << "none lost, none dropped while b was not handling";
+  while (a->handleTimeout(0) > 0) {
+  }
+  while (b->handleTimeout(0) > 0) {
+  }
+  ASSERT_EQ(heard_a.size(), 200u);
+  ASSERT_EQ(heard_b, heard_a);
+  for (std::size_t i = 0; i < 100; ++i) ASSERT_EQ(heard_b[2 * i], i) << "out of order";
+  EXPECT_EQ(b->handleTimeout(0), 0) << "nothing left: a time-out";
+}
+
+TEST(MemoryBus, ItsDescriptorWakesAPollerInAnotherThread) {
+  MemoryNetwork network;
+  auto sender = network.connect();
+  auto receiver = network.connect();
+  std::size_t heard = 0;
+  receiver->subscribe("X", [&](const std::uint8_t*, std::size_t, std::int64_t) { ++heard; });
+  std::thread listener([&] {
+    while (heard < 3) ASSERT_GE(receiver->handleTimeout(5000), 0);
+  });
+  for (int i = 0; i < 3; ++i) sender->publish("X", bytes({1}));
+  listener.join();
+  EXPECT_EQ(heard, 3u);
+}
+
+std::vector<std::uint8_t> statusRequest(std::int64_t id) {
+  occmap::status_request_t request{};
+  request.utime = 1;
+  request.request_id = id;
+  std::vector<std::uint8_t> data(static_cast<std::size_t>(request.getEncodedSize()));
+  request.encode(data.data(), 0, static_cast<int>(data.size()));
+  return data;
+}
+
+TEST(StatusRequests, AreAnsweredOldestFirstAtTheBoundedRateAndAFloodIsShedAndCounted) {
+  constexpr std::int64_t kS = 1'000'000'000;
+  StatusRequests requests(20.0, 0);
+  for (std::int64_t id = 0; id < 40; ++id) {
+    const auto data = statusRequest(id);
+    requests.take(data.data(), data.size());
+  }
+  const std::uint8_t garbage[] = {1, 2, 3};
+  requests.take(garbage, sizeof garbage);
+  EXPECT_EQ(requests.waiting(), StatusRequests::kMaxPending);
+  EXPECT_EQ(requests.ignored(), 40 - StatusRequests::kMaxPending + 1) << "shed and malformed";
+  std::vector<std::int64_t> answered;
+  auto answer = [&](std::int64_t id) { answered.push_back(id); };
+  requests.answer(0, answer);  // the bucket starts full: 20 tokens, 16 waiting
+  ASSERT_EQ(answered.size(), StatusRequests::kMaxPending);
+  for (std::size_t i = 0; i < answered.size(); ++i) EXPECT_EQ(answered[i], static_cast<int>(i));
+  // Now empty of requests, and 4 tokens left; 30 more come at once, 16 are kept.
+  answered.clear();
+  for (std::int64_t id = 100; id < 130; ++id) {
+    const auto data = statusRequest(id);
+    requests.take(data.data(), data.size());
+  }
+  requests.answer(0, answer);
+  EXPECT_EQ(answered.size(), 4u) << "only the tokens left";
+  requests.answer(kS / 10, answer);  // 0.1 s: two more tokens
+  EXPECT_EQ(answered.size(), 6u);
+  requests.answer(10 * kS, answer);  // the bucket holds at most 20
+  EXPECT_EQ(answered.size(), 16u);
+  EXPECT_EQ(answered.back(), 115);
+  EXPECT_EQ(requests.waiting(), 0u);
+}
+
+}  // namespace
+}  // namespace occmap
