@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 #include "core/image.h"
 
@@ -71,12 +72,13 @@ class FrameSource {
   const std::string& lastError() const { return error_; }
 
  protected:
-  Status fail(std::string message) {
-    error_ = std::move(message);
+  // Into the same string each time: once it is long enough, saying why allocates nothing.
+  Status fail(std::string_view message) {
+    error_.assign(message);
     return Status::kError;
   }
-  Status lost(std::string message) {
-    error_ = std::move(message);
+  Status lost(std::string_view message) {
+    error_.assign(message);
     return Status::kLost;
   }
 

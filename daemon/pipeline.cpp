@@ -155,7 +155,8 @@ bool Pipeline::camerasReportedIn() const {
 
 std::uint64_t Pipeline::framesDropped() const {
   std::uint64_t dropped = 0;
-  for (const auto& camera : cameras_) dropped += camera->frames_dropped.load(std::memory_order_relaxed);
+  for (const auto& camera : cameras_)
+    dropped += camera->frames_dropped.load(std::memory_order_relaxed);
   return dropped;
 }
 
@@ -239,15 +240,16 @@ void Pipeline::captureLoop(std::size_t k) {
       camera.frames_dropped.fetch_add(1, std::memory_order_relaxed);
       std::uint64_t suppressed = 0;
       if (camera.error_warnings.allow(now, suppressed)) {
+        char why[256];
         if (wrong_size) {
-          camera.last_error.format("a frame of %dx%d instead of %dx%d", frame.image.width,
-                                   frame.image.height, width, height);
+          std::snprintf(why, sizeof why, "a frame of %dx%d instead of %dx%d", frame.image.width,
+                        frame.image.height, width, height);
         } else {
-          camera.last_error.set(source.lastError());
+          std::snprintf(why, sizeof why, "%s", source.lastError().c_str());
         }
+        camera.last_error.set(why);
         logLine(LogLevel::kWarning, "camera %s: %s, dropped (%llu more like this not shown)",
-                rig_camera.name.c_str(), camera.last_error.str().c_str(),
-                static_cast<unsigned long long>(suppressed));
+                rig_camera.name.c_str(), why, static_cast<unsigned long long>(suppressed));
       }
       continue;
     }
@@ -291,7 +293,8 @@ void Pipeline::fusionLoop() {
     const std::int64_t now = monotonicNanoseconds();
     for (std::size_t k = 0; k < cameras_.size(); ++k) {
       Camera& camera = *cameras_[k];
-      if (camera.frames.takeLatest()) frame_set_.frameArrived(k, camera.frames.readBuffer().arrival_ns);
+      if (camera.frames.takeLatest())
+        frame_set_.frameArrived(k, camera.frames.readBuffer().arrival_ns);
       states_[k] = camera.health.state(now);
       noteState(k, states_[k], now);
     }
@@ -310,12 +313,14 @@ void Pipeline::noteState(std::size_t k, CameraState state, std::int64_t now) {
       prepared_.rig.cameras()[k].source->isLive()) {
     return;
   }
-  camera.last_error.format("no frame for %.1f s",
-                           static_cast<double>(camera.health.silenceNs(now)) / 1e9);
+  char why[96];
+  std::snprintf(why, sizeof why, "no frame for %.1f s",
+                static_cast<double>(camera.health.silenceNs(now)) / 1e9);
+  camera.last_error.set(why);
   std::uint64_t suppressed = 0;
   if (camera.down_warnings.allow(now, suppressed)) {
     logLine(LogLevel::kWarning, "camera %s is down: %s (%llu more since)",
-            prepared_.rig.cameras()[k].name.c_str(), camera.last_error.str().c_str(),
+            prepared_.rig.cameras()[k].name.c_str(), why,
             static_cast<unsigned long long>(suppressed));
   }
 }
@@ -331,9 +336,9 @@ void Pipeline::fuse(std::int64_t now) {
     // previous frame as long as that is recent (a down camera's cells turn unseen instead).
     const bool used = frame_set_.uses(k, states_[k], now, camera.health.downAfterNs());
     changed_[k] = used ? frame.changed.data() : nullptr;
-    out.cameras[k] = CameraContribution{states_[k], used,
-                                        used ? static_cast<std::int64_t>(frame.sequence) : -1,
-                                        used ? frame.capture_time_us : 0};
+    out.cameras[k] =
+        CameraContribution{states_[k], used, used ? static_cast<std::int64_t>(frame.sequence) : -1,
+                           used ? frame.capture_time_us : 0};
     if (used) {
       newest = std::max(newest, frame.capture_time_us);
       newest_arrival = std::max(newest_arrival, frame.arrival_ns);

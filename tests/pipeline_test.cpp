@@ -10,12 +10,15 @@
 #include <filesystem>
 #include <mutex>
 #include <random>
+#include <string>
 #include <thread>
 
 #include <gtest/gtest.h>
 
 #include "allocation_counter.h"
+#include "base/clock.h"
 #include "bus_listener.h"
+#include "config/calibration_file.h"
 #include "config/config.h"
 #include "daemon/liveness.h"
 #include "sim_reference.h"
@@ -24,6 +27,7 @@
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
 #include "transport/memory_bus.h"
+#include "tsai_xml.h"
 
 namespace occmap {
 namespace {
@@ -34,14 +38,16 @@ using testing::TemporaryFolder;
 class PipelineAtHeight : public ::testing::TestWithParam<const char*> {
  protected:
   Config loadRoom() {
-    return loadConfig(folder_.write("room.yaml", testing::simRoomConfig("memq://", "", GetParam())));
+    return loadConfig(
+        folder_.write("room.yaml", testing::simRoomConfig("memq://", "", GetParam())));
   }
   TemporaryFolder folder_;
 };
 
 INSTANTIATE_TEST_SUITE_P(Columns, PipelineAtHeight, ::testing::Values("0", "0.3"),
                          [](const auto& param_info) {
-                           return std::string(param_info.param) == "0" ? "FloorPoint" : "Columns30cm";
+                           return std::string(param_info.param) == "0" ? "FloorPoint"
+                                                                       : "Columns30cm";
                          });
 
 TEST_P(PipelineAtHeight, MapsArriveInOrderAndEqualTheReferenceFusionOfTheirFrames) {
@@ -179,6 +185,70 @@ TEST_P(PipelineAtHeight, RunningSteadilyAllocatesNothing) {
   EXPECT_GE(maps, 20u) << "the pipeline should have been working meanwhile";
   EXPECT_EQ(allocations, 0) << allocations << " allocations (the largest " << largest
                             << " bytes) over " << maps << " maps and two statuses";
+}
+
+// A camera that fails now and then: every 7th read an error, with a long reason (past any string's
+// small-buffer), made once so that the source itself allocates nothing to say it.
+class FlakySource final : public FrameSource {
+ public:
+  FlakySource() : image_(100, 100, 120), reason_(200, 'x') {}
+  int width() const override { return 100; }
+  int height() const override { return 100; }
+  Status read(Frame& frame) override {
+    const std::uint64_t n = next_++;
+    if (n % 7 == 3) return fail(reason_);
+    frame.image = image_.view();
+    frame.sequence = n;
+    frame.capture_time_us = hostTimeMicroseconds();
+    return Status::kFrame;
+  }
+
+ private:
+  Image image_;
+  std::string reason_;
+  std::uint64_t next_ = 0;
+};
+
+// The status after camera errors: the error text goes into fixed room, so that reporting it
+// allocates nothing (two statuses a second for seconds, with a camera failing all along).
+TEST(Pipeline, TheStatusAllocatesNothingEvenAfterCameraErrors) {
+  Config config = parseConfig(
+      "map: {origin_m: [-0.6, -0.6], cell_size_m: 0.04, width: 30, height: 30}\n"
+      "fusion: {threshold: 25, column_height_m: 0.3}\n"
+      "transport: {lcm_url: \"memq://\"}\n"
+      "cameras:\n  - {name: flaky, source: \"sim://room/c0\", fps: 100}\n",
+      "flaky.yaml");
+  RigCamera flaky;
+  flaky.name = "flaky";
+  flaky.camera = std::make_unique<Camera>(
+      std::make_shared<TsaiCamera>(parseTsaiXml(testing::kDownwardXml, "down.xml")),
+      LengthUnit::kMillimetre, 100, 100);
+  flaky.background = Image(100, 100, 120);
+  flaky.threshold = 25;
+  flaky.source = std::make_unique<FlakySource>();
+  std::vector<RigCamera> cameras;
+  cameras.push_back(std::move(flaky));
+  Rig rig = Rig::assemble(config, std::move(cameras));
+  std::vector<CarveTable> tables = rig.buildTables(0.3);
+  auto bus = std::make_unique<LcmBus>("memq://");
+  ASSERT_TRUE(bus->good());
+  PipelineOptions options;
+  options.status_period = std::chrono::milliseconds(100);
+  Pipeline pipeline(PreparedRig{std::move(rig), std::move(tables), 0.3}, std::move(bus), options);
+  pipeline.start();
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // errors met, statuses sent
+  ASSERT_GT(pipeline.framesDropped(), 5u) << "the camera should have failed by now";
+  long allocations = 0;
+  const std::uint64_t dropped_before = pipeline.framesDropped();
+  {
+    testing::AllocationCounter counter;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2000));
+    allocations = counter.allocations();
+  }
+  const std::uint64_t dropped = pipeline.framesDropped() - dropped_before;
+  pipeline.stop();
+  EXPECT_GT(dropped, 5u) << "the camera went on failing meanwhile";
+  EXPECT_EQ(allocations, 0) << "statuses after camera errors allocated";
 }
 
 // A bus whose publish blocks once told to, as a send stuck in the kernel or a wedged network
