@@ -29,6 +29,7 @@
 #include "daemon/pipeline.h"
 #include "notify_listener.h"
 #include "sim_room_config.h"
+#include "timing.h"
 #include "transport/map_codec.h"
 #include "transport/memory_bus.h"
 #include "tsai_xml.h"
@@ -540,7 +541,7 @@ TEST(BadFrames, TheDaemonDropsBadImagesFromAFilesSourceCountsThemAndStreamsOn) {
   NotifyListener systemd(site.folder / "notify");
   ChildProcess daemon({kOccmapd, "--config", file.string()}, site.folder / "daemon",
                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}});
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(20s), "READY=1")) << daemon.err();
   systemd.collect(2500ms, "frames dropped");
   std::string status;
   const auto give_up = std::chrono::steady_clock::now() + 30s;
@@ -620,8 +621,9 @@ TEST(FloorBehindTheCamera, IsAWarningAndAnEmptyTableAndTheOtherCamerasMakeTheMap
   NotifyListener systemd(site.folder / "notify");
   ChildProcess daemon({kOccmapd, "--config", file.string()}, site.folder / "daemon",
                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}});
-  ASSERT_TRUE(systemd.collect(30s, "READY=1")) << daemon.err();
-  EXPECT_TRUE(systemd.collect(10s, "3 of 3 cameras streaming")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(30s), "READY=1")) << daemon.err();
+  EXPECT_TRUE(systemd.collect(testing::eventually(10s), "3 of 3 cameras streaming"))
+      << daemon.err();
   const std::size_t pings = systemd.count("WATCHDOG=1");
   systemd.collect(1500ms);
   EXPECT_GT(systemd.count("WATCHDOG=1"), pings);
@@ -667,7 +669,7 @@ TEST(ReloadWithBadFiles, IsRefusedNamingTheFileAndTheRunningConfigStays) {
   NotifyListener systemd(site.folder / "notify");
   ChildProcess daemon({kOccmapd, "--config", file.string()}, site.folder / "daemon",
                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}});
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(20s), "READY=1")) << daemon.err();
   ASSERT_TRUE(systemd.collect(5s, "STATUS=")) << daemon.err();
   const long long published_before = mapsPublished(systemd.messages().back().text);
 
@@ -685,7 +687,7 @@ TEST(ReloadWithBadFiles, IsRefusedNamingTheFileAndTheRunningConfigStays) {
            std::string::npos;
   };
   daemon.signal(SIGHUP);
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(20s), "READY=1")) << daemon.err();
   EXPECT_TRUE(refusedWith(file.string() + ":10: cameras[2].background: cannot decode image " +
                           site.path("truncated.png")))
       << daemon.err();
@@ -700,7 +702,7 @@ TEST(ReloadWithBadFiles, IsRefusedNamingTheFileAndTheRunningConfigStays) {
   // The config file gone altogether: the same.
   fs::remove(file);
   daemon.signal(SIGHUP);
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(20s), "READY=1")) << daemon.err();
   EXPECT_TRUE(refusedWith(file.string() + ": cannot read config file: No such file or directory"))
       << daemon.err();
   const std::size_t pings = systemd.count("WATCHDOG=1");

@@ -8,6 +8,7 @@
 #include "child_process.h"
 #include "notify_listener.h"
 #include "sim_room_config.h"
+#include "timing.h"
 
 namespace occmap {
 namespace {
@@ -24,11 +25,13 @@ const std::string kOccmapd = OCCMAP_BINARY_DIR "/daemon/occmapd";
 void expectCleanStopWithinOneSecond(ChildProcess& daemon) {
   const auto stop = std::chrono::steady_clock::now();
   daemon.signal(SIGTERM);
-  const auto code = daemon.waitExit(3s);
+  const auto code = daemon.waitExit(testing::eventually(3s));
   const auto took = std::chrono::steady_clock::now() - stop;
-  ASSERT_TRUE(code) << "still running 3 s after SIGTERM";
+  ASSERT_TRUE(code) << "still running long after SIGTERM";
   EXPECT_EQ(*code, 0) << daemon.err();
-  EXPECT_LT(took, 1s) << "a clean stop takes under a second";
+  if (!testing::kSanitized) {
+    EXPECT_LT(took, 1s) << "a clean stop takes under a second";
+  }
 }
 
 TEST(Occmapd, CheckSaysValidOrNamesTheProblem) {
@@ -50,13 +53,21 @@ TEST(Occmapd, CheckSaysValidOrNamesTheProblem) {
       << result.err;
 }
 
-TEST(Occmapd, TellsSystemdReadyStatusWatchdogAndStoppingAndStopsWithinOneSecond) {
+// With the floor point and with the shipped default, 0.3 m columns.
+class OccmapdAtHeight : public ::testing::TestWithParam<const char*> {};
+INSTANTIATE_TEST_SUITE_P(Columns, OccmapdAtHeight, ::testing::Values("0", "0.3"),
+                         [](const auto& param_info) {
+                           return std::string(param_info.param) == "0" ? "FloorPoint"
+                                                                       : "Columns30cm";
+                         });
+
+TEST_P(OccmapdAtHeight, TellsSystemdReadyStatusWatchdogAndStoppingAndStopsWithinOneSecond) {
   TemporaryFolder folder;
-  const auto config = folder.write("room.yaml", testing::simRoomConfig());
+  const auto config = folder.write("room.yaml", testing::simRoomConfig("memq://", "", GetParam()));
   NotifyListener systemd(folder / "notify");
   ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "daemon",
                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}});
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(20s), "READY=1")) << daemon.err();
   systemd.collect(3s);
   EXPECT_GE(systemd.count("WATCHDOG=1"), 4u) << "pings every 0.5 s while fusion makes maps";
   EXPECT_GE(systemd.count("STATUS="), 1u);
@@ -81,7 +92,7 @@ TEST(Occmapd, StopsCleanlyWithinOneSecondUnderFullLoad) {
   NotifyListener systemd(folder / "notify");
   ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "daemon",
                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}});
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(20s), "READY=1")) << daemon.err();
   systemd.collect(2s);
   expectCleanStopWithinOneSecond(daemon);
   EXPECT_NE(daemon.err().find("stopped after"), std::string::npos) << daemon.err();
@@ -97,11 +108,11 @@ TEST(Occmapd, ReloadsOnSighupAndKeepsTheOldConfigWhenTheNewOneIsInvalid) {
   NotifyListener systemd(folder / "notify");
   ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "daemon",
                       {{"NOTIFY_SOCKET", systemd.path().string()}, {"WATCHDOG_USEC", "2000000"}});
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(20s), "READY=1")) << daemon.err();
   // A broken config: reported, and the daemon goes on with the old one.
   folder.write("room.yaml", testing::simRoomConfig() + "fusion_typo: {}\n");
   daemon.signal(SIGHUP);
-  ASSERT_TRUE(systemd.collect(10s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(10s), "READY=1")) << daemon.err();
   EXPECT_EQ(systemd.count("RELOADING=1"), 1u);
   EXPECT_NE(daemon.err().find("reload refused"), std::string::npos) << daemon.err();
   EXPECT_NE(daemon.err().find("room.yaml:9: fusion_typo: unknown key"), std::string::npos)
@@ -112,11 +123,11 @@ TEST(Occmapd, ReloadsOnSighupAndKeepsTheOldConfigWhenTheNewOneIsInvalid) {
   // A valid new config: applied.
   folder.write("room.yaml", testing::simRoomConfig("memq://", ", max_wait_ms: 20"));
   daemon.signal(SIGHUP);
-  ASSERT_TRUE(systemd.collect(20s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd.collect(testing::eventually(20s), "READY=1")) << daemon.err();
   EXPECT_NE(daemon.err().find("reloaded"), std::string::npos) << daemon.err();
   EXPECT_TRUE(daemon.running());
   daemon.signal(SIGTERM);
-  EXPECT_EQ(daemon.waitExit(3s), 0) << daemon.err();
+  EXPECT_EQ(daemon.waitExit(testing::eventually(3s)), 0) << daemon.err();
 }
 
 }  // namespace

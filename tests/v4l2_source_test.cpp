@@ -24,6 +24,7 @@
 #include "network_namespace.h"
 #include "notify_listener.h"
 #include "temporary_folder.h"
+#include "timing.h"
 #include "v4l2_shim/v4l2_shim.h"
 
 namespace occmap {
@@ -498,7 +499,7 @@ TEST(V4l2Daemon, ACameraGoesDownOnUnplugAndStreamsAgainAfterReplug) {
                                 {shim::kUnplugFileVariable, unplug_file.string()},
                                 {shim::kRatesVariable, "30"},
                                 {"NOTIFY_SOCKET", systemd->path().string()}});
-  ASSERT_TRUE(systemd->collect(30s, "READY=1")) << daemon.err();
+  ASSERT_TRUE(systemd->collect(testing::eventually(30s), "READY=1")) << daemon.err();
   systemd.reset();  // nobody would read it any more (see network_test)
 
   auto waitFor = [&](const std::string& state, std::chrono::milliseconds limit) {
