@@ -10,9 +10,9 @@
 #include <system_error>
 #include <thread>
 
-#include "capture/files_source.h"
 #include "capture/image_file.h"
 #include "capture/live_source.h"
+#include "capture/open_source.h"
 #include "capture/source_spec.h"
 #include "config/calibration_file.h"
 #include "config/input_error.h"
@@ -160,7 +160,7 @@ Rig Rig::open(const Config& full_config, const RigOptions& options) {
                               : sim->renderer().floorMask();
       camera.source = std::move(sim);
     } else if (spec->kind == SourceSpec::Kind::kFiles) {
-      std::unique_ptr<FilesSource> files = FilesSource::open(spec->pattern, error);
+      std::unique_ptr<FrameSource> files = openSource(*spec, {}, error);
       if (!files) opener.fail("source", error);
       const int width = files->width();
       const int height = files->height();
@@ -223,9 +223,7 @@ void Rig::openLiveCamera(std::size_t index, const SourceSpec& spec) {
   live.height = camera.background.height();
   live.notice = notice_;
   std::string error;
-  std::unique_ptr<FrameSource> source = spec.kind == SourceSpec::Kind::kAravis
-                                            ? openAravisSource(spec.device, live, error)
-                                            : openV4l2Source(spec.device, live, error);
+  std::unique_ptr<FrameSource> source = openSource(spec, live, error);
   if (!source) opener.fail(entry.settings.empty() ? "source" : "settings", error);
   const int width = source->width();
   const int height = source->height();
