@@ -1,4 +1,4 @@
-// The pipeline under load: occmapd's own Pipeline (capture threads, rings, fusion, the LCM thread)
+// The pipeline under load: occmapd's own Pipeline (capture threads, newest-frame buffers, fusion, the publisher thread)
 // fed by simulated cameras whose frames were rendered before the clock starts, so that only what
 // the daemon does is measured: copying each frame in and marking its changed pixels, fusing,
 // encoding and publishing. K cameras at F fps for S seconds, maps over UDP multicast in a private

@@ -1,5 +1,5 @@
 #pragma once
-// occmapd's own Pipeline (capture threads, rings, fusion thread, the LCM thread) fed by simulated
+// occmapd's own Pipeline (capture threads, newest-frame buffers, fusion thread, the publisher thread) fed by simulated
 // cameras whose frames were rendered before the clock starts, so that only what the daemon does
 // costs time: copying each frame in and marking its changed pixels, fusing, encoding, publishing.
 // With multicast, `occmap view` in another process subscribes to the maps and counts those lost.
