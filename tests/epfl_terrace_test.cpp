@@ -50,8 +50,9 @@ std::string exampleConfig(double column_height_m) {
     }
   };
   replace_all("../../shared/data", fs::weakly_canonical(kData).string());
+  // A path, not a concatenation: GCC 12's -Warray-bounds misreads the inlined operator+ here.
   replace_all("epfl-terrace/black",
-              std::string(OCCMAP_SOURCE_DIR) + "/examples/epfl-terrace/black");
+              (fs::path(OCCMAP_SOURCE_DIR) / "examples" / "epfl-terrace" / "black").string());
   std::ostringstream height;
   height << "column_height_m: " << column_height_m;
   replace_all("column_height_m: 0.3", height.str());
