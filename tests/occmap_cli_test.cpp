@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -26,14 +27,15 @@ using testing::writeText;
 
 const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
 
+// The number `key` names in `json`, one JSON object (a failure and NaN when it is not JSON or has
+// no such number).
 double jsonNumber(const std::string& json, const std::string& key) {
-  const std::string label = "\"" + key + "\":";
-  const std::size_t at = json.find(label);
-  if (at == std::string::npos) {
-    ADD_FAILURE() << "no " << key << " in " << json;
+  const nlohmann::json object = nlohmann::json::parse(json, nullptr, /*allow_exceptions=*/false);
+  if (!object.is_object() || !object.contains(key) || !object[key].is_number()) {
+    ADD_FAILURE() << "no number " << key << " in " << json;
     return std::nan("");
   }
-  return std::stod(json.substr(at + label.size()));
+  return object[key].get<double>();
 }
 
 TEST(OccmapProject, WorldToPixelAsJsonInFullPrecision) {
