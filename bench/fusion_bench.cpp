@@ -22,6 +22,7 @@
 
 #include "bench/baselines.h"
 #include "bench/bench_rig.h"
+#include "bench/json_line.h"
 #include "bench/previous_kernel.h"
 #include "core/fusion_kernel.h"
 #include "core/reference_fusion.h"
@@ -427,11 +428,11 @@ void printSummary(const std::map<std::string, double>& rates) {
     for (const std::string mode_name : {"floor", "column"}) {
       const double maps = rate(config + "/" + mode_name + "/kernel/cold");
       if (maps == 0) continue;
-      std::printf(
-          "{\"config\":\"%s\",\"mode\":\"%s\",\"maps_per_s\":%.1f,\"paper_loop_maps_per_s\":%.1f,"
-          "\"memory_bound_maps_per_s\":%.1f}\n",
-          config.c_str(), mode_name.c_str(), maps, rate(config + "/paper_loop/cold"),
-          rate(config + "/memory_bound/cold"));
+      printJsonLine({{"config", config},
+                     {"mode", mode_name},
+                     {"maps_per_s", rounded(maps, 1)},
+                     {"paper_loop_maps_per_s", rounded(rate(config + "/paper_loop/cold"), 1)},
+                     {"memory_bound_maps_per_s", rounded(rate(config + "/memory_bound/cold"), 1)}});
     }
   }
 }

@@ -15,6 +15,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "bench/json_line.h"
 #include "bench/pipeline_under_load.h"
 #include "tests/network_namespace.h"
 
@@ -61,15 +62,18 @@ int run(const Options& o) {
       latency.percentileMs(0.99), latency.maxMs(), fusion.percentileMs(0.5),
       fusion.percentileMs(0.99), cpu_ms_per_map, 100.0 * cpu_s / wall_s,
       static_cast<unsigned long long>(pipeline.framesDropped()), lost);
-  std::printf(
-      "{\"pipeline\":\"%s\",\"cameras\":%zu,\"fps\":%g,\"seconds\":%.1f,\"maps\":%llu,"
-      "\"latency_p50_ms\":%.3f,\"latency_p99_ms\":%.3f,\"latency_max_ms\":%.3f,"
-      "\"cpu_ms_per_map\":%.3f,\"cpu_share_of_core\":%.3f,\"frames_dropped\":%llu,"
-      "\"maps_lost\":%lld}\n",
-      config.name.c_str(), load.cameraCount(), o.load.fps, wall_s,
-      static_cast<unsigned long long>(maps), latency.percentileMs(0.5), latency.percentileMs(0.99),
-      latency.maxMs(), cpu_ms_per_map, cpu_s / wall_s,
-      static_cast<unsigned long long>(pipeline.framesDropped()), lost);
+  printJsonLine({{"pipeline", config.name},
+                 {"cameras", load.cameraCount()},
+                 {"fps", o.load.fps},
+                 {"seconds", rounded(wall_s, 1)},
+                 {"maps", maps},
+                 {"latency_p50_ms", rounded(latency.percentileMs(0.5), 3)},
+                 {"latency_p99_ms", rounded(latency.percentileMs(0.99), 3)},
+                 {"latency_max_ms", rounded(latency.maxMs(), 3)},
+                 {"cpu_ms_per_map", rounded(cpu_ms_per_map, 3)},
+                 {"cpu_share_of_core", rounded(cpu_s / wall_s, 3)},
+                 {"frames_dropped", pipeline.framesDropped()},
+                 {"maps_lost", lost}});
   return 0;
 }
 

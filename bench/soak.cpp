@@ -21,6 +21,7 @@
 #include <dirent.h>
 #include <unistd.h>
 
+#include "bench/json_line.h"
 #include "bench/pipeline_under_load.h"
 #include "tests/network_namespace.h"
 
@@ -278,9 +279,9 @@ int run(const Options& o) {
   const TimeHistogram& latency = pipeline.publishLatency();
   const TimeHistogram& fusion = pipeline.fusionTimes();
 
-  std::string failed;
+  std::vector<std::string> failed;  // the targets missed, by name
   auto check = [&failed](bool ok, const char* name) {
-    if (!ok) failed += std::string(failed.empty() ? "" : ",") + "\"" + name + "\"";
+    if (!ok) failed.emplace_back(name);
   };
   check(dropped == 0, "frames_dropped");
   check(subscriber.lost == 0 && not_received == 0, "maps_lost");
@@ -348,27 +349,43 @@ int run(const Options& o) {
       "p99 %.3f ms; CPU %.1f %% of one core\n",
       latency.percentileMs(0.5), latency.percentileMs(0.99), latency.maxMs(),
       fusion.percentileMs(0.5), fusion.percentileMs(0.99), 100.0 * cpu_s / wall_s);
-  std::printf("  %s%s\n", pass ? "PASS" : "FAIL: ", pass ? "" : failed.c_str());
-  std::printf(
-      "{\"soak\":\"%s\",\"cameras\":%zu,\"fps\":%g,\"seconds\":%.1f,\"warmup_s\":%g,"
-      "\"load_before\":%.2f,\"load_after\":%.2f,\"load_max\":%.2f,\"cpu_pressure_max\":%.2f,"
-      "\"stolen_ms\":%lld,\"maps\":%llu,\"maps_per_s\":%.2f,"
-      "\"maps_skipped\":%llu,\"maps_received\":%lld,\"maps_lost\":%lld,"
-      "\"maps_not_received\":%lld,\"frames_dropped\":%llu,\"rss_start_kib\":%ld,"
-      "\"rss_warmup_kib\":%ld,\"rss_end_kib\":%ld,\"rss_growth_kib\":%ld,"
-      "\"rss_peak_growth_kib\":%ld,\"rss_trend_kib_per_min\":%.1f,\"anon_growth_kib\":%ld,"
-      "\"fds_warmup\":%d,\"fds_end\":%d,\"threads_warmup\":%d,\"threads_end\":%d,"
-      "\"latency_p50_ms\":%.3f,\"latency_p99_ms\":%.3f,\"latency_max_ms\":%.3f,"
-      "\"cpu_share_of_core\":%.3f,\"verdict\":\"%s\",\"failed\":[%s]}\n",
-      config.name.c_str(), load.cameraCount(), o.load.fps, wall_s, o.warmup, load_before,
-      load_after, busiest, most_pressure, samples.back().stolen_ms - stolen_at_start,
-      static_cast<unsigned long long>(maps), rate,
-      static_cast<unsigned long long>(pipeline.mapsSkipped()), subscriber.received, subscriber.lost,
-      not_received, static_cast<unsigned long long>(dropped), at_start.rss_kib, w.process.rss_kib,
-      e.process.rss_kib, rss_growth, rss_peak - w.process.rss_kib, slope,
-      e.process.anon_kib - w.process.anon_kib, w.process.fds, e.process.fds, w.process.threads,
-      e.process.threads, latency.percentileMs(0.5), latency.percentileMs(0.99), latency.maxMs(),
-      cpu_s / wall_s, pass ? "PASS" : "FAIL", failed.c_str());
+  std::string missed;
+  for (const std::string& name : failed) missed += (missed.empty() ? "" : ", ") + name;
+  std::printf("  %s%s\n", pass ? "PASS" : "FAIL: ", missed.c_str());
+  printJsonLine({{"soak", config.name},
+                 {"cameras", load.cameraCount()},
+                 {"fps", o.load.fps},
+                 {"seconds", rounded(wall_s, 1)},
+                 {"warmup_s", o.warmup},
+                 {"load_before", rounded(load_before, 2)},
+                 {"load_after", rounded(load_after, 2)},
+                 {"load_max", rounded(busiest, 2)},
+                 {"cpu_pressure_max", rounded(most_pressure, 2)},
+                 {"stolen_ms", samples.back().stolen_ms - stolen_at_start},
+                 {"maps", maps},
+                 {"maps_per_s", rounded(rate, 2)},
+                 {"maps_skipped", pipeline.mapsSkipped()},
+                 {"maps_received", subscriber.received},
+                 {"maps_lost", subscriber.lost},
+                 {"maps_not_received", not_received},
+                 {"frames_dropped", dropped},
+                 {"rss_start_kib", at_start.rss_kib},
+                 {"rss_warmup_kib", w.process.rss_kib},
+                 {"rss_end_kib", e.process.rss_kib},
+                 {"rss_growth_kib", rss_growth},
+                 {"rss_peak_growth_kib", rss_peak - w.process.rss_kib},
+                 {"rss_trend_kib_per_min", rounded(slope, 1)},
+                 {"anon_growth_kib", e.process.anon_kib - w.process.anon_kib},
+                 {"fds_warmup", w.process.fds},
+                 {"fds_end", e.process.fds},
+                 {"threads_warmup", w.process.threads},
+                 {"threads_end", e.process.threads},
+                 {"latency_p50_ms", rounded(latency.percentileMs(0.5), 3)},
+                 {"latency_p99_ms", rounded(latency.percentileMs(0.99), 3)},
+                 {"latency_max_ms", rounded(latency.maxMs(), 3)},
+                 {"cpu_share_of_core", rounded(cpu_s / wall_s, 3)},
+                 {"verdict", pass ? "PASS" : "FAIL"},
+                 {"failed", failed}});
   return pass ? kExitPass : kExitFail;
 }
 

@@ -6,11 +6,11 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <occmap/control_status_t.hpp>
 #include <occmap/status_t.hpp>
 
 #include "fuzz/fuzz_target.h"
-#include "fuzz/json_check.h"
 #include "transport/status_message.h"
 #include "transport/status_text.h"
 
@@ -57,8 +57,13 @@ bool fuzzControlStatus(Input input) {
   require(table.size() > section.size() &&
               table.compare(table.size() - section.size(), section.size(), section) == 0,
           "the status table ends with the control section");
-  require(JsonCheck::isJson(formatStatusJson(status, &control)),
+  // What --json prints is read by programs (nlohmann's parser is as strict as RFC 8259: UTF-8,
+  // no raw control characters in strings) and may be printed on a terminal: printable ASCII only.
+  const std::string json = formatStatusJson(status, &control);
+  require(nlohmann::json::accept(json),
           "occmap status --json prints valid JSON with a control status");
+  require(std::all_of(json.begin(), json.end(), [](char c) { return c >= 0x20 && c < 0x7f; }),
+          "occmap status --json prints printable ASCII only");
   return true;
 }
 

@@ -5,10 +5,10 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <occmap/status_t.hpp>
 
 #include "fuzz/fuzz_target.h"
-#include "fuzz/json_check.h"
 #include "transport/status_message.h"
 #include "transport/status_text.h"
 
@@ -43,7 +43,12 @@ bool fuzzStatus(Input input) {
   const auto lines = static_cast<std::size_t>(std::count(table.begin(), table.end(), '\n'));
   require(lines >= 6 + std::max<std::size_t>(status.cameras.size(), 1),
           "the status table has a line for each camera");
-  require(JsonCheck::isJson(formatStatusJson(status)), "occmap status --json prints valid JSON");
+  // What --json prints is read by programs (nlohmann's parser is as strict as RFC 8259: UTF-8,
+  // no raw control characters in strings) and may be printed on a terminal: printable ASCII only.
+  const std::string json = formatStatusJson(status);
+  require(nlohmann::json::accept(json), "occmap status --json prints valid JSON");
+  require(std::all_of(json.begin(), json.end(), [](char c) { return c >= 0x20 && c < 0x7f; }),
+          "occmap status --json prints printable ASCII only");
   return true;
 }
 

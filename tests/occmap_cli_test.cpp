@@ -1,9 +1,11 @@
 // The occmap command as a user runs it: output formats, exit codes, and maps that equal the
 // reference fusion of the same images.
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -13,6 +15,7 @@
 #include "config/calibration_file.h"
 #include "core/carve_table.h"
 #include "core/reference_fusion.h"
+#include "sim_reference.h"
 #include "tsai_xml.h"
 
 namespace occmap {
@@ -26,14 +29,15 @@ using testing::writeText;
 
 const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
 
+// The number `key` names in `json`, one JSON object (a failure and NaN when it is not JSON or has
+// no such number).
 double jsonNumber(const std::string& json, const std::string& key) {
-  const std::string label = "\"" + key + "\":";
-  const std::size_t at = json.find(label);
-  if (at == std::string::npos) {
-    ADD_FAILURE() << "no " << key << " in " << json;
+  const nlohmann::json object = nlohmann::json::parse(json, nullptr, /*allow_exceptions=*/false);
+  if (!object.is_object() || !object.contains(key) || !object[key].is_number()) {
+    ADD_FAILURE() << "no number " << key << " in " << json;
     return std::nan("");
   }
-  return std::stod(json.substr(at + label.size()));
+  return object[key].get<double>();
 }
 
 TEST(OccmapProject, WorldToPixelAsJsonInFullPrecision) {
@@ -324,6 +328,58 @@ TEST(OccmapFuse, SimulatedRoomIsScoredAgainstItsGroundTruth) {
   EXPECT_NE(result.out.find("objects found 15 of 15"), std::string::npos) << result.out;
   const cv::Mat picture = cv::imread((folder / "snapshot.png").string());
   EXPECT_GT(picture.cols, 512);
+}
+
+// occmap fuse runs the daemon's kernel; its maps must still be the reference fusion of the same
+// frames, cell for cell, in both carving modes. The simulator is deterministic: frame n of
+// sim://room/cK is what SimRoomReference renders for sequence n.
+TEST(OccmapFuse, SimulatedRoomMapsAreTheReferenceFusionOfTheirFrames) {
+  constexpr int kFrames = 8;
+  const std::string example = readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml");
+  const std::string column_line = "column_height_m: 0.3";
+  ASSERT_NE(example.find(column_line), std::string::npos) << "examples/sim-room.yaml changed";
+  const MapGeometry map{-0.62, -1.87, 0.02, 512, 512};  // the example's map
+  for (const double column_height : {0.0, 0.3}) {
+    SCOPED_TRACE("column_height_m " + std::to_string(column_height));
+    TemporaryFolder folder;
+    std::string text = example;
+    if (column_height == 0.0)
+      text.replace(text.find(column_line), column_line.size(), "column_height_m: 0");
+    writeText(folder / "room.yaml", text);
+    const auto out = folder / "maps";
+    const auto result = runCommand({kOccmap, "fuse", "--config", (folder / "room.yaml").string(),
+                                    "--out", out.string(), "--frames", std::to_string(kFrames)});
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    ASSERT_NE(result.out.find("wrote " + std::to_string(kFrames) + " maps"), std::string::npos)
+        << result.out;
+
+    const testing::SimRoomReference reference(map, column_height);
+    std::size_t occupied = 0;
+    for (int n = 0; n < kFrames; ++n) {
+      DecodedMap frames;  // what a map of frame set n used: frame n of every camera
+      frames.cameras.resize(4);
+      for (DecodedCamera& camera : frames.cameras) {
+        camera.used = true;
+        camera.sequence = n;
+      }
+      const OccupancyMap expected = reference.expected(frames);
+      char name[32];
+      std::snprintf(name, sizeof name, "map_%06d.png", n);
+      const cv::Mat written = cv::imread((out / name).string(), cv::IMREAD_UNCHANGED);
+      ASSERT_EQ(written.type(), CV_8UC1) << name;
+      ASSERT_EQ(written.rows, map.height) << name;
+      ASSERT_EQ(written.cols, map.width) << name;
+      for (int row = 0; row < map.height; ++row) {
+        for (int column = 0; column < map.width; ++column) {
+          ASSERT_EQ(written.at<std::uint8_t>(row, column), greyLevel(expected.at(row, column)))
+              << name << " cell " << row << "," << column;
+          occupied += expected.at(row, column) == CellState::kOccupied ? 1 : 0;
+        }
+      }
+    }
+    EXPECT_GT(occupied, kFrames * 1000u)
+        << "the people, chairs and robot should leave occupied cells";
+  }
 }
 
 TEST(OccmapBackground, TheMedianOfFramesDropsWhatPassesBy) {

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -204,6 +205,10 @@ TEST_F(LiveLcm, StatusPrintsTheAnswerAsATableAndAsJson) {
   }
   EXPECT_EQ(std::count(result.out.begin(), result.out.end(), '\n'), 1) << result.out;
   EXPECT_EQ(result.out.find("control_"), std::string::npos) << result.out;
+  const nlohmann::json status = nlohmann::json::parse(result.out, nullptr, false);
+  ASSERT_TRUE(status.is_object()) << "not one JSON object: " << result.out;
+  EXPECT_EQ(status["cameras"].size(), 2u) << result.out;
+  EXPECT_EQ(status["cameras"][1]["name"], "door-camera") << result.out;
 }
 
 TEST(OccmapViewArguments, RefusesAVideoThatIsNotAvi) {

@@ -14,7 +14,7 @@
 #include "config/exit_codes.h"
 #include "config/input_error.h"
 #include "config/rig.h"
-#include "core/reference_fusion.h"
+#include "core/fusion_kernel.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
 #include "tools/progress.h"
@@ -154,8 +154,19 @@ int run(const FuseOptions& o) {
     if (count > 0 && (total == 0 || count < total)) total = count;
   }
 
+  // The daemon's kernel, used as daemon/pipeline.cpp uses it (each camera's changed pixels marked
+  // as its frame arrives, then the masks fused), so that these maps are the daemon's maps at the
+  // daemon's speed. (Its tests hold it to the reference fusion, cell for cell.)
+  FusionKernel kernel(tables);
+  std::vector<std::vector<std::uint8_t>> changed(cameras.size());
+  for (std::size_t k = 0; k < cameras.size(); ++k) {
+    changed[k].assign(changedMaskBytes(cameras[k].source->width(), cameras[k].source->height()), 0);
+  }
+  std::vector<const std::uint8_t*> masks(cameras.size(), nullptr);
+  std::vector<ImageView> live(cameras.size());
+  OccupancyMap map(config.map);
+
   Progress progress("fusing", total);
-  std::vector<CameraFrame> frames(cameras.size());
   std::vector<std::pair<std::string, Image>> last_images;
   std::optional<OccupancyMap> last_map;
   std::uint64_t maps = 0;
@@ -174,11 +185,18 @@ int run(const FuseOptions& o) {
                          cameras[k].source->lastError() + " (after " + std::to_string(maps) +
                              " maps were written)");
       }
-      frames[k] =
-          CameraFrame{&tables[k], frame.image, cameras[k].background.view(), cameras[k].threshold};
+      // Without a frame (a live camera's timeout) the camera is left out of this frame set, as the
+      // daemon leaves out a camera that has none: its cells count only if another camera sees them.
+      live[k] = status == FrameSource::Status::kFrame ? frame.image : ImageView{};
+      masks[k] = nullptr;
+      if (status == FrameSource::Status::kFrame) {
+        kernel.markChangedPixels(k, frame.image, cameras[k].background.view(), cameras[k].threshold,
+                                 changed[k].data());
+        masks[k] = changed[k].data();
+      }
     }
     if (ended) break;
-    const OccupancyMap map = fuseReference(config.map, frames);
+    kernel.fuse(masks, map.cells);
     char name[32];
     std::snprintf(name, sizeof name, "map_%06llu.png", static_cast<unsigned long long>(maps));
     std::string error;
@@ -195,9 +213,9 @@ int run(const FuseOptions& o) {
     if (!o.snapshot.empty()) {
       last_images.clear();
       for (std::size_t k = 0; k < cameras.size(); ++k) {
-        Image copy(frames[k].live.width, frames[k].live.height);
+        Image copy(live[k].width, live[k].height);
         for (int v = 0; v < copy.height(); ++v) {
-          std::copy_n(frames[k].live.row(v), copy.width(), copy.row(v));
+          std::copy_n(live[k].row(v), copy.width(), copy.row(v));
         }
         last_images.emplace_back(cameras[k].name, std::move(copy));
       }

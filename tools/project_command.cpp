@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <memory>
 
+#include <nlohmann/json.hpp>
+
 #include "config/calibration_file.h"
 #include "config/exit_codes.h"
 #include "tools/commands.h"
@@ -22,6 +24,11 @@ int noResult(const std::string& why) {
   std::fprintf(stderr, "occmap project: no result: %s\n", why.c_str());
   return kExitNoResult;
 }
+
+// One object on one line, keys in the order given. nlohmann writes each double in the fewest
+// digits that read back as the same double: full precision, and null for a value that is not
+// finite (which printf's "nan" would not be).
+void printJson(const nlohmann::ordered_json& object) { std::printf("%s\n", object.dump().c_str()); }
 
 int run(const ProjectOptions& o) {
   const LoadedCalibration calibration = loadCalibration(o.calibration);
@@ -43,8 +50,7 @@ int run(const ProjectOptions& o) {
           "folds back), so it has no image");
     }
     if (o.json) {
-      std::printf("{\"u\":%.17g,\"v\":%.17g,\"depth\":%.17g}\n", image->pixel.x(), image->pixel.y(),
-                  image->depth);
+      printJson({{"u", image->pixel.x()}, {"v", image->pixel.y()}, {"depth", image->depth}});
     } else {
       const bool inside = image->pixel.x() >= -0.5 && image->pixel.y() >= -0.5 &&
                           image->pixel.x() < model.width() - 0.5 &&
@@ -69,8 +75,10 @@ int run(const ProjectOptions& o) {
                     " in front of the camera (for the floor: the pixel looks above the horizon)");
   }
   if (o.json) {
-    std::printf("{\"x\":%.17g,\"y\":%.17g,\"z\":%.17g,\"depth\":%.17g}\n", point->world.x(),
-                point->world.y(), point->world.z(), point->depth);
+    printJson({{"x", point->world.x()},
+               {"y", point->world.y()},
+               {"z", point->world.z()},
+               {"depth", point->depth}});
   } else {
     std::printf("x %.6f  y %.6f  z %.6f  depth %.6f %s\n", point->world.x(), point->world.y(),
                 point->world.z(), point->depth, unit.c_str());

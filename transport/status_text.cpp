@@ -8,6 +8,8 @@
 #include <string_view>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 namespace occmap {
 namespace {
 
@@ -97,60 +99,6 @@ std::string age(std::int64_t status_utime, std::int64_t capture_utime) {
       (static_cast<double>(status_utime) - static_cast<double>(capture_utime)) / 1000.0;
   if (std::fabs(ms) < 1000.0) return format("%.0f ms ago", ms);
   return format("%.1f s ago", ms / 1000.0);
-}
-
-// A JSON string (RFC 8259) of a text from the network: valid UTF-8 whatever the bytes were (a byte
-// that is not UTF-8 becomes U+FFFD, as a decoder would show it), control characters escaped.
-std::string jsonString(std::string_view text) {
-  std::string out = "\"";
-  for (std::size_t at = 0; at < text.size();) {
-    char32_t code_point = 0;
-    const std::size_t length = utf8Sequence(text, at, code_point);
-    if (length == 0) {
-      out += "\\ufffd";
-      ++at;
-      continue;
-    }
-    switch (code_point) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      default:
-        if (isControl(code_point)) {
-          out += format("\\u%04x", static_cast<unsigned>(code_point));
-        } else {
-          out.append(text.substr(at, length));
-        }
-    }
-    at += length;
-  }
-  return out + "\"";
-}
-
-std::string jsonNumber(double value) {
-  return std::isfinite(value) ? format("%.17g", value) : std::string("null");
-}
-
-std::string jsonNumber(std::int64_t value) { return format("%" PRId64, value); }
-
-// A JSON array of `values`, each written by `element`.
-template <typename Values, typename Element>
-std::string jsonArray(const Values& values, Element element) {
-  std::string array = "[";
-  for (const auto& value : values) array += (array.size() > 1 ? "," : "") + element(value);
-  return array + "]";
 }
 
 }  // namespace
@@ -264,59 +212,60 @@ std::string formatControlStatusTable(const occmap::control_status_t& c) {
 }
 
 std::string formatStatusJson(const occmap::status_t& s, const occmap::control_status_t* control) {
-  std::string j = "{";
-  j += "\"utime\":" + jsonNumber(s.utime);
-  j += ",\"request_id\":" + jsonNumber(s.request_id);
-  j += ",\"hostname\":" + jsonString(s.hostname);
-  j += ",\"config_file\":" + jsonString(s.config_file);
-  j += ",\"state\":" + jsonNumber(std::int64_t{s.state});
-  j += ",\"state_name\":" + jsonString(daemonStateName(s.state));
-  j += ",\"uptime_s\":" + jsonNumber(s.uptime_s);
-  j += ",\"maps_published\":" + jsonNumber(s.maps_published);
-  j += ",\"publish_errors\":" + jsonNumber(s.publish_errors);
-  j += ",\"maps_per_s\":" + jsonNumber(s.maps_per_s);
-  j += ",\"fusion_p50_ms\":" + jsonNumber(s.fusion_p50_ms);
-  j += ",\"fusion_p99_ms\":" + jsonNumber(s.fusion_p99_ms);
-  j += ",\"cameras\":[";
-  for (std::size_t k = 0; k < s.cameras.size(); ++k) {
-    const auto& c = s.cameras[k];
-    if (k > 0) j += ",";
-    j += "{\"name\":" + jsonString(c.name);
-    j += ",\"source\":" + jsonString(c.source);
-    j += ",\"state\":" + jsonNumber(std::int64_t{c.state});
-    j += ",\"state_name\":" + jsonString(cameraStateName(c.state));
-    j += ",\"frames_in\":" + jsonNumber(c.frames_in);
-    j += ",\"frames_dropped\":" + jsonNumber(c.frames_dropped);
-    j += ",\"fps\":" + jsonNumber(c.fps);
-    j += ",\"last_capture_utime\":" + jsonNumber(c.last_capture_utime);
-    j += ",\"frames_incomplete\":" + jsonNumber(c.frames_incomplete);
-    j += ",\"missing_packets\":" + jsonNumber(c.missing_packets);
-    j += ",\"resent_packets\":" + jsonNumber(c.resent_packets);
-    j += ",\"underruns\":" + jsonNumber(c.underruns);
-    j += ",\"reconnects\":" + jsonNumber(std::int64_t{c.reconnects});
-    j += ",\"last_error\":" + jsonString(c.last_error) + "}";
+  // ordered_json: the keys in the order of status_t's fields, as a reader of the LCM type expects.
+  nlohmann::ordered_json j = {
+      {"utime", s.utime},
+      {"request_id", s.request_id},
+      {"hostname", s.hostname},
+      {"config_file", s.config_file},
+      {"state", std::int64_t{s.state}},
+      {"state_name", daemonStateName(s.state)},
+      {"uptime_s", s.uptime_s},
+      {"maps_published", s.maps_published},
+      {"publish_errors", s.publish_errors},
+      {"maps_per_s", s.maps_per_s},
+      {"fusion_p50_ms", s.fusion_p50_ms},
+      {"fusion_p99_ms", s.fusion_p99_ms},
+  };
+  nlohmann::ordered_json& cameras = j["cameras"] = nlohmann::ordered_json::array();
+  for (const auto& c : s.cameras) {
+    cameras.push_back(nlohmann::ordered_json{
+        {"name", c.name},
+        {"source", c.source},
+        {"state", std::int64_t{c.state}},
+        {"state_name", cameraStateName(c.state)},
+        {"frames_in", c.frames_in},
+        {"frames_dropped", c.frames_dropped},
+        {"fps", c.fps},
+        {"last_capture_utime", c.last_capture_utime},
+        {"frames_incomplete", c.frames_incomplete},
+        {"missing_packets", c.missing_packets},
+        {"resent_packets", c.resent_packets},
+        {"underruns", c.underruns},
+        {"reconnects", std::int64_t{c.reconnects}},
+        {"last_error", c.last_error},
+    });
   }
-  j += "]";
   if (control != nullptr) {
     // The control_status_t's fields, named as they would be if they were status_t's (control_*),
     // and the per-camera arrays in the order of its camera_name.
     const occmap::control_status_t& c = *control;
-    j += ",\"control_enabled\":" + std::string(c.control_enabled ? "true" : "false");
-    j += ",\"control_disabled\":" + jsonNumber(c.disabled);
-    j += ",\"control_malformed\":" + jsonNumber(c.malformed);
-    j += ",\"control_bad_mac\":" + jsonNumber(c.bad_mac);
-    j += ",\"control_stale\":" + jsonNumber(c.stale);
-    j += ",\"control_refused\":" + jsonNumber(c.refused);
-    j += ",\"control_accepted\":" + jsonNumber(c.accepted);
-    j += ",\"camera_name\":" +
-         jsonArray(c.camera_name, [](const std::string& name) { return jsonString(name); });
-    j += ",\"camera_threshold\":" + jsonArray(c.camera_threshold, [](std::int32_t threshold) {
-           return jsonNumber(std::int64_t{threshold});
-         });
-    j += ",\"camera_background_utime\":" +
-         jsonArray(c.camera_background_utime, [](std::int64_t utime) { return jsonNumber(utime); });
+    j["control_enabled"] = c.control_enabled != 0;
+    j["control_disabled"] = c.disabled;
+    j["control_malformed"] = c.malformed;
+    j["control_bad_mac"] = c.bad_mac;
+    j["control_stale"] = c.stale;
+    j["control_refused"] = c.refused;
+    j["control_accepted"] = c.accepted;
+    j["camera_name"] = c.camera_name;
+    j["camera_threshold"] = c.camera_threshold;
+    j["camera_background_utime"] = c.camera_background_utime;
   }
-  return j + "}";
+  // The texts are anyone's on the network: bytes that are not UTF-8 become U+FFFD (rather than an
+  // exception), and ensure_ascii writes every character outside printable ASCII as \uXXXX, so that
+  // no control character (C0, DEL, C1) reaches a terminal raw when the JSON is printed on one.
+  // Non-finite numbers come out as null.
+  return j.dump(-1, ' ', true, nlohmann::ordered_json::error_handler_t::replace);
 }
 
 }  // namespace occmap

@@ -3,7 +3,8 @@
 // `occmap status` prints, and what the daemon can write to its log. A status may come from anyone
 // on the network segment, so neither trusts its texts or numbers: the table shows control
 // characters and bytes that are not UTF-8 as '?' (nothing reaches the terminal as an escape
-// sequence), the JSON is valid UTF-8 with control characters escaped, and no value overflows.
+// sequence), the JSON (nlohmann/json) is ASCII with every other character escaped and bytes that
+// are not UTF-8 as U+FFFD, and no value overflows.
 
 #include <string>
 #include <string_view>
@@ -24,8 +25,9 @@ std::string formatStatusTable(const occmap::status_t& status,
 // when control is enabled, one per camera with its threshold and background. Ends with a newline.
 std::string formatControlStatusTable(const occmap::control_status_t& control);
 
-// One JSON object on one line (no newline), every field of status_t by its LCM name, states also
-// by name ("state_name"), cameras as an array of objects. With `control`, its fields follow
+// One JSON object on one line (no newline, no blanks), every field of status_t by its LCM name in
+// its order, states also by name ("state_name"), cameras as an array of objects; numbers that are
+// not finite as null. With `control`, its fields follow
 // ("control_enabled", the six counters as "control_disabled" ... "control_accepted", and the
 // arrays "camera_name", "camera_threshold", "camera_background_utime").
 std::string formatStatusJson(const occmap::status_t& status,
