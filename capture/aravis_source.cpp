@@ -30,6 +30,7 @@
 #include <time.h>
 
 #include "base/clock.h"
+#include "capture/frame_numbering.h"
 #include "capture/live_source.h"
 
 // ThreadSanitizer builds (GCC, clang): see "ThreadSanitizer and Aravis's buffer queues" below.
@@ -168,17 +169,6 @@ bool sameValue(const std::string& asked, const std::string& got) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The fake camera's fill hook, for tests
-
-std::mutex fake_fill_mutex;
-std::shared_ptr<const FakeCameraFill> fake_fill;
-
-std::shared_ptr<const FakeCameraFill> currentFakeFill() {
-  std::lock_guard lock(fake_fill_mutex);
-  return fake_fill;
-}
-
-// ---------------------------------------------------------------------------------------------
 // Releasing a camera that vanished
 
 // Drops our reference to an Aravis stream or camera, which stops its thread (the stream's receive
@@ -250,8 +240,6 @@ struct StreamContext {
   int realtime_priority = 0;             // 0: leave the receive thread's priority alone
   std::atomic<int> realtime_granted{0};  // +1 granted, -1 refused, 0 not yet asked
   std::atomic<bool> control_lost{false};
-  std::shared_ptr<const FakeCameraFill> fill;  // tests: the fake camera's pattern
-  std::size_t payload = 0;                     // bytes of each buffer of the pool
 #ifdef OCCMAP_TSAN
   std::atomic<std::uint64_t> buffers_done{0};  // BUFFER_DONE events so far (awaitBufferDone)
 #endif
@@ -263,7 +251,7 @@ using ContextRef = std::shared_ptr<StreamContext>;
 // arv_stream_push_buffer and come back through arv_stream_timeout_pop_buffer: GAsyncQueues, which
 // GLib synchronises with futexes of its own in a library built without TSan, so TSan sees no order
 // between our use of a buffer and the stream thread's (google/sanitizers#490): it reports Aravis's
-// copy of the GigE packets, the fake camera's fill hook and our reads of the frame as races, and
+// copy of the GigE packets, the fake camera's drawing and our reads of the frame as races, and
 // even suppressed, so many (one per frame) that the capture threads stop keeping up. In TSan builds
 // occmap therefore tells TSan what the queues guarantee, and nothing more: what this thread did
 // before a push happens before the stream thread starts on a buffer (its START_BUFFER event, keyed
@@ -308,18 +296,6 @@ void onStreamEvent(void* data, ArvStreamCallbackType type, ArvBuffer* /*buffer*/
 
 void onControlLost(ArvDevice* /*device*/, gpointer data) {
   (*static_cast<ContextRef*>(data))->control_lost.store(true);
-}
-
-void fillFakeFrame(ArvBuffer* buffer, void* data, guint32 /*exposure_us*/, guint32 /*gain*/,
-                   ArvPixelFormat /*format*/) {
-  const StreamContext& context = *static_cast<const StreamContext*>(data);
-  // The fake camera fills a buffer of our own pool (of context.payload bytes; Aravis reports
-  // none received yet): writing it is what its own pattern does too.
-  std::size_t ignored = 0;
-  auto* bytes =
-      static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &ignored)));
-  (*context.fill)(context.camera_name, bytes, context.payload, arv_buffer_get_image_width(buffer),
-                  arv_buffer_get_image_height(buffer));
 }
 
 // A stream setting: "stream.<property>" names a property of Aravis's stream object (for GigE
@@ -377,13 +353,17 @@ class AravisSource final : public FrameSource {
       releaseNow(false);
       return false;
     }
-    connected_ns_ = monotonicNanoseconds();
-    last_frame_ns_ = 0;
+    silent_ = false;
+    numbering_.restart();
+    started();
     return true;
   }
 
-  // The camera is not there yet: the first read() says so and the daemon keeps trying.
-  void startLost(std::string why) { pending_loss_ = std::move(why); }
+  // The camera is not there yet: the source is kLost, read() says why, the daemon keeps trying.
+  void startLost(std::string why) {
+    pending_loss_ = std::move(why);
+    lost(pending_loss_);
+  }
 
   int width() const override { return width_; }
   int height() const override { return height_; }
@@ -402,7 +382,6 @@ class AravisSource final : public FrameSource {
       arv_camera_start_acquisition(camera_, &gerror);
       if (gerror != nullptr) return lost("the camera did not start: " + takeMessage(gerror));
       acquiring_ = true;
-      connected_ns_ = monotonicNanoseconds();
     }
     reportRealtime();
     if (context_->control_lost.load()) {
@@ -412,26 +391,24 @@ class AravisSource final : public FrameSource {
     ArvBuffer* buffer = arv_stream_timeout_pop_buffer(stream_, kWaitUs);
     if (buffer != nullptr) awaitBufferDone();
     updateCounters();
-    const std::int64_t now = monotonicNanoseconds();
-    if (buffer == nullptr) {
-      const std::int64_t since = last_frame_ns_ != 0 ? last_frame_ns_ : connected_ns_;
-      const std::int64_t limit = last_frame_ns_ != 0 ? silence_limit_ns_ : 2 * silence_limit_ns_;
-      if (now - since > limit) {
-        char why[96];
-        std::snprintf(why, sizeof why, "no frame for %.1f s (the camera stopped sending)",
-                      static_cast<double>(now - since) / 1e9);
-        return lost(why);
-      }
-      return Status::kTimeout;
-    }
-    last_frame_ns_ = now;
+    // However long the camera is silent, that is the caller's to judge (frame_source.h); only how
+    // it will be released depends on it (see disconnect).
+    silent_ = buffer == nullptr;
+    if (buffer == nullptr) return Status::kTimeout;
     const ArvBufferStatus status = arv_buffer_get_status(buffer);
+    const std::uint64_t frame_id = arv_buffer_get_frame_id(buffer);
+    // A damaged frame keeps its number (a gap where it was) when its id is the camera's: it came
+    // with a leader, even if packets are missing. A buffer Aravis never filled has no id to count.
+    const bool numbered =
+        status == ARV_BUFFER_STATUS_SUCCESS || status == ARV_BUFFER_STATUS_MISSING_PACKETS ||
+        status == ARV_BUFFER_STATUS_TIMEOUT || status == ARV_BUFFER_STATUS_SIZE_MISMATCH;
+    const std::uint64_t number = numbered ? numbering_.number(frame_id) : 0;
     if (status != ARV_BUFFER_STATUS_SUCCESS) {
-      const auto id = static_cast<unsigned long long>(arv_buffer_get_frame_id(buffer));
       giveBack(buffer);
-      return fail("frame " + std::to_string(id) + " arrived " + bufferStatusText(status));
+      return fail("frame " + std::to_string(static_cast<unsigned long long>(frame_id)) +
+                  " arrived " + bufferStatusText(status));
     }
-    std::size_t received = 0;  // not what the fake camera's test pattern hook leaves: unused
+    std::size_t received = 0;  // unused: not every stream fills it in (the in-process fake)
     const auto* data =
         static_cast<const std::uint8_t*>(arv_buffer_get_image_data(buffer, &received));
     const int width = arv_buffer_get_image_width(buffer);
@@ -462,17 +439,18 @@ class AravisSource final : public FrameSource {
       reduceToLuminance(pixels_, data, width, height, stride, luminance_.data());
       frame.image = luminance_.view();
     }
-    frame.sequence = delivered_++;
+    frame.sequence = number;
     // Aravis stamps each frame with the host's wall clock when its first packet arrived.
     const guint64 system_ns = arv_buffer_get_system_timestamp(buffer);
     frame.capture_time_us =
         system_ns != 0 ? static_cast<std::int64_t>(system_ns / 1000) : hostTimeMicroseconds();
     frame.device_time_ns = arv_buffer_get_timestamp(buffer);
-    frame.device_frame_id = arv_buffer_get_frame_id(buffer);
+    frame.device_frame_id = frame_id;
     if (held_ == nullptr) giveBack(buffer);
-    return Status::kFrame;
+    return delivered();
   }
 
+  // Also while streaming: the caller reopens a camera that went silent without a word from Aravis.
   bool reopen() override {
     disconnect();
     std::string error;
@@ -481,6 +459,8 @@ class AravisSource final : public FrameSource {
       // Said once per kind of failure, not at every try.
       if (error != last_reopen_error_) notice("reconnecting: " + error);
       last_reopen_error_ = error;
+      pending_loss_ = error;
+      lost(error);
       return false;
     }
     last_reopen_error_.clear();
@@ -671,11 +651,6 @@ class AravisSource final : public FrameSource {
     }
     pixels_ = *pixels;
     if (!isEightBitImage(pixels_)) luminance_ = Image(width_, height_);
-    const double rate = arv_camera_get_frame_rate(camera_, &gerror);
-    g_clear_error(&gerror);
-    // A camera silent for three frame periods (at least a second) has stopped sending.
-    silence_limit_ns_ = std::max<std::int64_t>(
-        1'000'000'000, rate > 0 ? static_cast<std::int64_t>(3e9 / rate) : 1'000'000'000);
     return true;
   }
 
@@ -773,17 +748,6 @@ class AravisSource final : public FrameSource {
         }
       }
     }
-    if (ARV_IS_FAKE_DEVICE(device)) {
-      context->fill = currentFakeFill();
-      if (context->fill && *context->fill) {
-        // The fake camera keeps a plain pointer (it has no destroy notify): the source keeps the
-        // context alive, and a fake device is always released in place (releaseNow), so that its
-        // thread is gone before the source is.
-        arv_fake_camera_set_fill_pattern(arv_fake_device_get_fake_camera(ARV_FAKE_DEVICE(device)),
-                                         fillFakeFrame, context.get());
-        fake_fill_refs_.push_back(context);
-      }
-    }
     stream_ = arv_camera_create_stream_full(camera_, onStreamEvent, new ContextRef(context),
                                             releaseContextRefNotify, &gerror);
     if (stream_ == nullptr) {
@@ -805,7 +769,6 @@ class AravisSource final : public FrameSource {
       return false;
     }
     payload_ = payload;
-    context->payload = payload;  // before the buffers go in, which hands it to Aravis's threads
     for (int i = 0; i < kBuffers; ++i) giveBack(arv_buffer_new_allocate(payload));
     control_lost_handler_ =
         g_signal_connect_data(device, "control-lost", G_CALLBACK(onControlLost),
@@ -856,7 +819,8 @@ class AravisSource final : public FrameSource {
       g_signal_handler_disconnect(arv_camera_get_device(camera_), control_lost_handler_);
     }
     control_lost_handler_ = 0;
-    // An in-process fake camera answers whatever happened (and must be gone before the source).
+    // An in-process fake camera answers whatever happened, and released in place its thread is
+    // gone with the source (a program that draws into the fake camera relies on that).
     if (camera_ != nullptr && ARV_IS_FAKE_DEVICE(arv_camera_get_device(camera_))) answering = true;
     if (answering) {
       if (stream_ != nullptr && acquiring_) arv_camera_stop_acquisition(camera_, nullptr);
@@ -880,13 +844,9 @@ class AravisSource final : public FrameSource {
       base_.underruns += stream_counts_.underruns;
       stream_counts_ = {};
     }
-    // Answering: not lost, and either sending frames or not asked to yet (opened moments ago).
-    const std::int64_t now = monotonicNanoseconds();
-    const bool answering =
-        !context_ ||
-        (!context_->control_lost.load() &&
-         (last_frame_ns_ != 0 ? now - last_frame_ns_ < silence_limit_ns_
-                              : !acquiring_ || now - connected_ns_ < 2 * silence_limit_ns_));
+    // Answering: control not lost, and the last wait for a frame was not in vain (or none was made
+    // yet). A camera released after silence is most likely dead: the reaper waits for it.
+    const bool answering = !context_ || (!context_->control_lost.load() && !silent_);
     releaseNow(answering);
   }
 
@@ -903,16 +863,14 @@ class AravisSource final : public FrameSource {
   CameraPixels pixels_ = CameraPixels::kMono8;
   Image luminance_;  // for formats that need converting
   std::shared_ptr<StreamContext> context_;
-  std::vector<std::shared_ptr<StreamContext>> fake_fill_refs_;
   gulong control_lost_handler_ = 0;
   bool first_connection_ = true;
   bool acquiring_ = false;
   std::string pending_loss_;
   std::string last_reopen_error_;
-  std::int64_t connected_ns_ = 0;
-  std::int64_t last_frame_ns_ = 0;
-  std::int64_t silence_limit_ns_ = 1'000'000'000;
-  std::uint64_t delivered_ = 0;
+  bool silent_ = false;  // the last read() waited in vain
+  // The camera's frame ids, counted from 0 and on across reconnects (frame_numbering.h).
+  FrameNumbering numbering_{DeviceCounter::kGenicamFrameId};
 #ifdef OCCMAP_TSAN
   std::uint64_t buffers_popped_ = 0;  // since the last connect (awaitBufferDone)
 #endif
@@ -926,11 +884,6 @@ class AravisSource final : public FrameSource {
 };
 
 }  // namespace
-
-void setFakeCameraFill(FakeCameraFill fill) {
-  std::lock_guard lock(fake_fill_mutex);
-  fake_fill = std::make_shared<const FakeCameraFill>(std::move(fill));
-}
 
 std::unique_ptr<FrameSource> openAravisSource(const std::string& device,
                                               const LiveSourceOptions& options,

@@ -1,12 +1,10 @@
 #pragma once
-// The parts of the Aravis backend that tests reach: how each pixel format becomes the 8-bit image
-// fusion compares, and a way to put known scenes into Aravis's in-process Fake camera.
+// The Aravis backend's pixel formats: which GenICam formats occmap takes and how each becomes the
+// 8-bit image fusion compares. (The source itself: openAravisSource in capture/live_source.h.)
 
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <optional>
-#include <string>
 #include <string_view>
 
 #include "core/image.h"
@@ -38,14 +36,5 @@ int bytesPerPixel(CameraPixels pixels);
 // bytes themselves for Mono8 and Bayer. `stride` is the bytes from one input row to the next.
 void reduceToLuminance(CameraPixels pixels, const std::uint8_t* data, int width, int height,
                        std::ptrdiff_t stride, std::uint8_t* out);
-
-// For tests: from now on, every in-process Fake camera (aravis://Fake_1, after
-// arv_enable_interface("Fake")) that an Aravis source opens draws its frames with `fill` instead
-// of its own pattern. `fill` runs on the fake camera's thread and gets the camera's name in the
-// config, the frame's bytes and its geometry. An empty function restores the fake's own pattern
-// for sources opened later.
-using FakeCameraFill = std::function<void(const std::string& camera_name, std::uint8_t* data,
-                                          std::size_t size, int width, int height)>;
-void setFakeCameraFill(FakeCameraFill fill);
 
 }  // namespace occmap

@@ -68,7 +68,7 @@ std::unique_ptr<FilesSource> FilesSource::open(const std::string& pattern, std::
 }
 
 FrameSource::Status FilesSource::read(Frame& frame) {
-  if (next_ >= files_.size()) return Status::kEnd;
+  if (next_ >= files_.size()) return ended();
   // Past this file whatever becomes of it: a bad one is skipped (the caller drops and counts it),
   // not read again and again while the good ones after it wait.
   const std::filesystem::path& file = files_[next_++];
@@ -83,7 +83,7 @@ FrameSource::Status FilesSource::read(Frame& frame) {
   frame.image = *image;  // the reader's buffer: valid until the next read(), as Frame says
   frame.sequence = delivered_++;
   frame.capture_time_us = hostTimeMicroseconds();
-  return Status::kFrame;
+  return delivered();
 }
 
 }  // namespace occmap

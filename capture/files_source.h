@@ -22,6 +22,7 @@ class FilesSource final : public FrameSource {
   Status read(Frame& frame) override;
   bool rewind() override {
     next_ = 0;
+    started();
     return true;
   }
   const std::vector<std::filesystem::path>& files() const { return files_; }

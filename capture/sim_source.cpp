@@ -14,7 +14,7 @@ SimSource::SimSource(std::shared_ptr<const sim::Scene> scene, Camera camera, int
       frame_count_(static_cast<std::uint64_t>(std::floor(scene_->durationS() * fps))) {}
 
 FrameSource::Status SimSource::read(Frame& frame) {
-  if (next_ - first_of_loop_ >= frame_count_) return Status::kEnd;
+  if (next_ - first_of_loop_ >= frame_count_) return ended();
   last_time_ = static_cast<double>(next_ - first_of_loop_) / fps_;
   scene_->objectsAt(last_time_, objects_);
   if (current_.width() != width() || current_.height() != height())
@@ -23,7 +23,7 @@ FrameSource::Status SimSource::read(Frame& frame) {
   frame.image = current_.view();
   frame.sequence = next_++;
   frame.capture_time_us = hostTimeMicroseconds();
-  return Status::kFrame;
+  return delivered();
 }
 
 }  // namespace occmap

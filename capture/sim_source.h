@@ -21,6 +21,7 @@ class SimSource final : public FrameSource {
   // Starts the scripted motion over; frame numbers (and the noise they seed) keep counting.
   bool rewind() override {
     first_of_loop_ = next_;
+    started();
     return true;
   }
 

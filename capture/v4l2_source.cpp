@@ -29,6 +29,7 @@
 #include <unistd.h>
 
 #include "base/clock.h"
+#include "capture/frame_numbering.h"
 #include "capture/live_source.h"
 
 namespace occmap {
@@ -36,13 +37,10 @@ namespace {
 
 // Enough for the driver to fill frames while one is with us, few enough to stay near live.
 constexpr unsigned kBufferCount = 4;
-// read() never waits longer, so that the capture thread notices a stop (frame_source.h).
+// read() never waits longer, so that the capture thread notices a stop (frame_source.h). A driver
+// that stalls (streams, yet finishes no frame) is not noticed here: read() says kTimeout, and the
+// caller, which decides for every backend how long a silence may last, reopens the device.
 constexpr std::int64_t kReadWaitNs = 100'000'000;
-// A streaming device that sends nothing for this long has stalled (the issue: down within 1 s).
-constexpr std::int64_t kStallNs = 1'000'000'000;
-// The first frame after STREAMON may take longer: USB cameras settle their exposure first, and a
-// shorter wait would make such a camera time out and reopen for ever.
-constexpr std::int64_t kFirstFrameNs = 3'000'000'000;
 
 std::string errnoText(int number) { return std::strerror(number); }
 
@@ -152,7 +150,7 @@ class V4l2Source final : public FrameSource {
 
   // Opens the device, negotiates format, rate and controls, and starts streaming.
   OpenResult open();
-  // For a device absent at start: the first read() says kLost with this message.
+  // For a device absent at start: the source is kLost, and read() says so with this message.
   void startLost(std::string message) {
     away_ = std::move(message);
     lost(away_);
@@ -201,7 +199,6 @@ class V4l2Source final : public FrameSource {
   void closeDevice();
   Status deviceLost(const char* what, int number);
   bool queue(std::uint32_t index);
-  void countSequence(std::uint32_t sequence);
 
   // What a person should know that is not an error (a rate or value the driver adjusted): said on
   // each open, which is rare, never per frame.
@@ -229,13 +226,9 @@ class V4l2Source final : public FrameSource {
   Image luminance_;  // YUYV frames reduced to their Y bytes
   std::string away_;
 
-  // Watching for a stalled driver.
-  std::int64_t wait_from_ns_ = 0;
-  std::int64_t stall_ns_ = kFirstFrameNs;
-  // Sequence numbers: the driver's, made to count 0, 1, 2, ... across reopens.
-  bool have_sequence_ = false;
-  std::uint32_t last_driver_sequence_ = 0;
-  std::uint64_t next_sequence_ = 0;
+  // The driver numbers the frames it captured; a jump means it dropped frames for want of a free
+  // buffer (underruns). Counted from 0, going on across reopens.
+  FrameNumbering numbering_{DeviceCounter::kV4l2Sequence};
 
   std::atomic<std::int64_t> frames_incomplete_{0};
   std::atomic<std::int64_t> underruns_{0};
@@ -525,9 +518,8 @@ OpenResult V4l2Source::startStreaming() {
   int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   if (xioctl(VIDIOC_STREAMON, &type) != 0) return failed("VIDIOC_STREAMON", errno);
   streaming_ = true;
-  have_sequence_ = false;
-  wait_from_ns_ = monotonicNanoseconds();
-  stall_ns_ = kFirstFrameNs;
+  numbering_.restart();
+  started();
   return opened();
 }
 
@@ -577,38 +569,15 @@ FrameSource::Status V4l2Source::deviceLost(const char* what, int number) {
   return lost(std::move(message));
 }
 
-// The driver numbers the frames it captured; a jump means it dropped frames for want of a free
-// buffer. Drivers that never count (always 0) or jump back still give increasing numbers here.
-void V4l2Source::countSequence(std::uint32_t sequence) {
-  if (have_sequence_) {
-    const std::uint32_t step = sequence - last_driver_sequence_;  // wraps like the driver's
-    if (step > 1 && step < (1u << 30)) {
-      underruns_.fetch_add(step - 1, std::memory_order_relaxed);
-      next_sequence_ += step - 1;
-    }
-  }
-  have_sequence_ = true;
-  last_driver_sequence_ = sequence;
-}
-
 FrameSource::Status V4l2Source::read(Frame& frame) {
   if (fd_ < 0) return lost(away_);
   if (held_ >= 0) {
     if (!queue(static_cast<std::uint32_t>(held_))) return deviceLost("VIDIOC_QBUF", errno);
     held_ = -1;
   }
-  const std::int64_t start_ns = monotonicNanoseconds();
+  const std::int64_t give_up_ns = monotonicNanoseconds() + kReadWaitNs;
   for (;;) {
-    const std::int64_t now_ns = monotonicNanoseconds();
-    const std::int64_t stall_at_ns = wait_from_ns_ + stall_ns_;
-    if (now_ns >= stall_at_ns) {
-      // Streaming, yet nothing: the driver stalled. Reopening is what brings such devices back.
-      return deviceLost(stall_ns_ == kFirstFrameNs
-                            ? "no first frame within 3 s of starting the stream"
-                            : "no frame for 1 s (the driver stalled)",
-                        0);
-    }
-    const std::int64_t wait_ns = std::min(start_ns + kReadWaitNs, stall_at_ns) - now_ns;
+    const std::int64_t wait_ns = give_up_ns - monotonicNanoseconds();
     if (wait_ns <= 0) return Status::kTimeout;
     pollfd device{fd_, POLLIN, 0};
     const int ready = ::poll(&device, 1, static_cast<int>((wait_ns + 999'999) / 1'000'000));
@@ -616,7 +585,7 @@ FrameSource::Status V4l2Source::read(Frame& frame) {
       if (errno == EINTR) continue;
       return deviceLost("poll", errno);
     }
-    if (ready == 0) continue;  // the loop decides between a timeout and a stall
+    if (ready == 0) continue;  // the loop says kTimeout once the wait is over
     if ((device.revents & (POLLERR | POLLHUP | POLLNVAL)) != 0) {
       // The driver ends the stream with POLLERR when the device goes or fails; an ioctl tells
       // which.
@@ -631,10 +600,12 @@ FrameSource::Status V4l2Source::read(Frame& frame) {
       if (errno == EAGAIN) continue;
       return deviceLost("VIDIOC_DQBUF", errno);
     }
-    wait_from_ns_ = monotonicNanoseconds();
-    // After the first frame, a stall is 1 s without one, or three frame periods at a slow rate.
-    stall_ns_ = fps_ > 0 ? std::max(kStallNs, static_cast<std::int64_t>(3e9 / fps_)) : kStallNs;
-    countSequence(buffer.sequence);
+    // Damaged frames have their number too: a gap where they were.
+    const std::uint64_t number = numbering_.number(buffer.sequence);
+    if (numbering_.missed() > 0) {
+      underruns_.fetch_add(static_cast<std::int64_t>(numbering_.missed()),
+                           std::memory_order_relaxed);
+    }
     if (buffer.index >= buffers_.size())
       return deviceLost("VIDIOC_DQBUF gave an unknown buffer", 0);
     const bool damaged = (buffer.flags & V4L2_BUF_FLAG_ERROR) != 0 ||
@@ -642,7 +613,6 @@ FrameSource::Status V4l2Source::read(Frame& frame) {
     if (damaged) {
       // Dropped and counted; kError lets the daemon count and (rate-limited) report it. The
       // messages fit std::string's inline buffer: no allocation even for damaged frames.
-      ++next_sequence_;
       frames_incomplete_.fetch_add(1, std::memory_order_relaxed);
       if (!queue(buffer.index)) return deviceLost("VIDIOC_QBUF", errno);
       return fail((buffer.flags & V4L2_BUF_FLAG_ERROR) != 0 ? "damaged frame" : "short frame");
@@ -661,7 +631,7 @@ FrameSource::Status V4l2Source::read(Frame& frame) {
     }
     // Either way the buffer goes back at the next read(), so that both paths are one.
     held_ = static_cast<int>(buffer.index);
-    frame.sequence = next_sequence_++;
+    frame.sequence = number;
     if ((buffer.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC &&
         (buffer.timestamp.tv_sec != 0 || buffer.timestamp.tv_usec != 0)) {
       // The driver stamps the monotonic clock; the daemon's clock is the wall clock. Taking the
@@ -676,10 +646,11 @@ FrameSource::Status V4l2Source::read(Frame& frame) {
     } else {
       frame.capture_time_us = hostTimeMicroseconds();
     }
-    return Status::kFrame;
+    return delivered();
   }
 }
 
+// Also while streaming: a stalled driver is brought back by exactly this, a new stream.
 bool V4l2Source::reopen() {
   closeDevice();
   OpenResult result = open();

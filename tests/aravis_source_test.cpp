@@ -1,7 +1,10 @@
 // The Aravis backend against Aravis's own in-process Fake camera (aravis://Fake_1): settings
 // applied and read back, config errors named, pixel formats reduced, frames with their times and
-// ids, and the live daemon's pipeline fed by four fake cameras that show the simulated room: every
-// map it publishes equals the reference fusion of the very images the cameras sent.
+// the camera's frame numbers (across its 16-bit wrap and a reopen), the source's state, and the
+// live daemon's pipeline fed by four fake cameras that show the simulated room: every map it
+// publishes equals the reference fusion of the very images the cameras sent. The pictures go into
+// the fake cameras through Aravis's own API (FakeCameraPainter); occmap has no hook for it.
+// Also the frame numbering rule itself (FrameNumbering), without a camera.
 //
 // The GigE Vision and USB3 Vision interfaces are switched off first, so that looking for a camera
 // sends nothing to any network.
@@ -9,8 +12,12 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <functional>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include <arv.h>
@@ -18,12 +25,15 @@
 
 #include "base/clock.h"
 #include "bus_listener.h"
+#include "capture/frame_numbering.h"
 #include "capture/image_file.h"
 #include "capture/live_source.h"
 #include "capture/sim/renderer.h"
+#include "child_process.h"
 #include "config/config.h"
 #include "config/input_error.h"
 #include "daemon/pipeline.h"
+#include "network_namespace.h"
 #include "sim_reference.h"
 #include "temporary_folder.h"
 #include "transport/map_codec.h"
@@ -36,6 +46,92 @@ namespace {
 using namespace std::chrono_literals;
 using testing::TemporaryFolder;
 
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kSanitized = true;  // how long a read() takes is not what is under test there
+#else
+constexpr bool kSanitized = false;
+#endif
+
+// Draws the frames of the in-process Fake cameras that Aravis sources open while it exists. Aravis
+// makes a new fake device, with a fake camera of its own, at every open of Fake_1, deep inside the
+// source; the painter reaches each one through Aravis's public API alone: for as long as it lives
+// it wraps the Fake interface's open_device (a member of ArvInterfaceClass, public so that Aravis's
+// interfaces can fill it in), and gives every fake device opened meanwhile its fill pattern
+// (arv_fake_camera_set_fill_pattern on arv_fake_device_get_fake_camera). One painter at a time; it
+// must outlive the sources opened under it (their fake cameras' threads call it).
+class FakeCameraPainter {
+ public:
+  // Draws one frame: its bytes (`size` of them: width x height in the camera's pixel format), the
+  // frame id the camera gave it, and the camera's exposure register, which is how a test tells
+  // its cameras apart (the fill pattern hears nothing else of the camera). Runs on the fake
+  // camera's thread.
+  using Paint = std::function<void(std::uint8_t* data, std::size_t size, int width, int height,
+                                   std::uint64_t frame_id, std::uint32_t exposure_us)>;
+
+  explicit FakeCameraPainter(Paint paint)
+      : paint_(std::move(paint)),
+        interface_class_(ARV_INTERFACE_GET_CLASS(arv_fake_interface_get_instance())),
+        original_open_(interface_class_->open_device) {
+    active_.store(this);
+    interface_class_->open_device = &FakeCameraPainter::openDevice;
+  }
+  ~FakeCameraPainter() {
+    interface_class_->open_device = original_open_;
+    active_.store(nullptr);
+  }
+  FakeCameraPainter(const FakeCameraPainter&) = delete;
+  FakeCameraPainter& operator=(const FakeCameraPainter&) = delete;
+
+  // Fake cameras opened under this painter so far.
+  int opened() const { return opened_.load(); }
+
+ private:
+  using OpenDevice = ArvDevice* (*)(ArvInterface*, const char*, GError**);
+
+  // Called by arv_open_device (under Aravis's own lock).
+  static ArvDevice* openDevice(ArvInterface* iface, const char* device_id, GError** error) {
+    FakeCameraPainter* painter = active_.load();
+    ArvDevice* device = painter->original_open_(iface, device_id, error);
+    if (device != nullptr && ARV_IS_FAKE_DEVICE(device)) {
+      arv_fake_camera_set_fill_pattern(arv_fake_device_get_fake_camera(ARV_FAKE_DEVICE(device)),
+                                       &FakeCameraPainter::fill, painter);
+      painter->opened_.fetch_add(1);
+    }
+    return device;
+  }
+
+  static void fill(ArvBuffer* buffer, void* data, guint32 exposure_us, guint32 /*gain*/,
+                   ArvPixelFormat format) {
+    // A buffer of the source's pool, which the fake camera has sized and stamped (geometry, frame
+    // id) but not yet counted as received, so its size comes from the geometry.
+    const int width = arv_buffer_get_image_width(buffer);
+    const int height = arv_buffer_get_image_height(buffer);
+    const std::size_t size = static_cast<std::size_t>(width) * static_cast<std::size_t>(height) *
+                             ARV_PIXEL_FORMAT_BIT_PER_PIXEL(format) / 8;
+    std::size_t ignored = 0;
+    auto* bytes =
+        static_cast<std::uint8_t*>(const_cast<void*>(arv_buffer_get_data(buffer, &ignored)));
+    static_cast<FakeCameraPainter*>(data)->paint_(bytes, size, width, height,
+                                                  arv_buffer_get_frame_id(buffer), exposure_us);
+  }
+
+  static inline std::atomic<FakeCameraPainter*> active_{nullptr};
+  Paint paint_;
+  ArvInterfaceClass* interface_class_;
+  OpenDevice original_open_;
+  std::atomic<int> opened_{0};
+};
+
+// The next frame within a few seconds (a live source may say kTimeout meanwhile).
+FrameSource::Status nextFrame(FrameSource& source, Frame& frame) {
+  const auto give_up = std::chrono::steady_clock::now() + 5s;
+  for (;;) {
+    const FrameSource::Status status = source.read(frame);
+    if (status != FrameSource::Status::kTimeout || std::chrono::steady_clock::now() > give_up)
+      return status;
+  }
+}
+
 class FakeCamera : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -43,7 +139,9 @@ class FakeCamera : public ::testing::Test {
     arv_disable_interface("USB3Vision");
     arv_enable_interface("Fake");
   }
-  void TearDown() override { setFakeCameraFill({}); }
+
+  // Paints the fake cameras of this test (destroyed after the test's sources, which it outlives).
+  void paint(FakeCameraPainter::Paint paint) { painter_.emplace(std::move(paint)); }
 
   LiveSourceOptions options(int width, int height,
                             std::vector<std::pair<std::string, std::string>> settings = {}) {
@@ -66,18 +164,9 @@ class FakeCamera : public ::testing::Test {
     return all;
   }
 
-  // The next frame within a few seconds (a live source may say kTimeout meanwhile).
-  static FrameSource::Status nextFrame(FrameSource& source, Frame& frame) {
-    const auto give_up = std::chrono::steady_clock::now() + 5s;
-    for (;;) {
-      const FrameSource::Status status = source.read(frame);
-      if (status != FrameSource::Status::kTimeout || std::chrono::steady_clock::now() > give_up)
-        return status;
-    }
-  }
-
   std::mutex mutex_;
   std::vector<std::string> notices_;
+  std::optional<FakeCameraPainter> painter_;
 };
 
 std::uint8_t pattern(int u, int v, std::uint64_t n) {
@@ -86,26 +175,33 @@ std::uint8_t pattern(int u, int v, std::uint64_t n) {
 
 TEST_F(FakeCamera, FramesCarryWhatTheCameraSentWithTheirTimesAndIds) {
   std::atomic<std::uint64_t> filled{0};
-  setFakeCameraFill(
-      [&](const std::string& name, std::uint8_t* data, std::size_t size, int width, int height) {
-        ASSERT_EQ(name, "a");
-        ASSERT_GE(size, static_cast<std::size_t>(width * height));
-        const std::uint64_t n = filled++;
-        for (int v = 0; v < height; ++v)
-          for (int u = 0; u < width; ++u) data[v * width + u] = pattern(u, v, n);
-      });
+  paint([&](std::uint8_t* data, std::size_t size, int width, int height, std::uint64_t,
+            std::uint32_t) {
+    ASSERT_EQ(width, 320) << "the camera sends the size the source asked";
+    ASSERT_EQ(height, 240);
+    ASSERT_GE(size, static_cast<std::size_t>(width * height));
+    const std::uint64_t n = filled++;
+    for (int v = 0; v < height; ++v)
+      for (int u = 0; u < width; ++u) data[v * width + u] = pattern(u, v, n);
+  });
   std::string error;
   auto source = openAravisSource("Fake_1", options(320, 240), error);
   ASSERT_TRUE(source) << error;
+  EXPECT_EQ(painter_->opened(), 1);
   EXPECT_TRUE(source->isLive());
+  EXPECT_EQ(source->state(), SourceState::kStarting) << "opened, no frame yet";
   EXPECT_EQ(source->width(), 320);
   EXPECT_EQ(source->height(), 240);
   std::int64_t previous_time = 0;
   std::uint64_t previous_id = 0;
+  std::uint64_t first_id = 0;
   for (std::uint64_t n = 0; n < 10; ++n) {
     Frame frame;
     ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+    EXPECT_EQ(source->state(), SourceState::kStreaming);
     EXPECT_EQ(frame.sequence, n);
+    if (n == 0) first_id = frame.device_frame_id;
+    EXPECT_EQ(frame.sequence, frame.device_frame_id - first_id) << "the camera's own count";
     ASSERT_EQ(frame.image.width, 320);
     ASSERT_EQ(frame.image.height, 240);
     // Every pixel is the one the camera sent for this frame (Mono8: handed out without a copy).
@@ -186,7 +282,7 @@ TEST_F(FakeCamera, WhatTheCameraRefusesIsAConfigErrorThatNamesIt) {
 }
 
 TEST_F(FakeCamera, ColourIsReducedToLuminanceAndBayerIsTakenRaw) {
-  setFakeCameraFill([](const std::string&, std::uint8_t* data, std::size_t size, int, int) {
+  paint([](std::uint8_t* data, std::size_t size, int, int, std::uint64_t, std::uint32_t) {
     for (std::size_t i = 0; i < size; ++i) data[i] = static_cast<std::uint8_t>(i * 37 % 251);
   });
   {
@@ -246,6 +342,125 @@ TEST(Luminance, YuvGivesItsLumaSamplesAndPaddingIsNeverRead) {
   EXPECT_FALSE(cameraPixelsOf(ARV_PIXEL_FORMAT_MONO_16).has_value());
 }
 
+// GigE Vision 1.x block ids are 16 bits and skip 0: 65534, 65535, 1, 2. The numbers count on.
+TEST(FrameNumbering, AGenicamCountWrapsAt65535To1WithoutAGap) {
+  FrameNumbering numbering(DeviceCounter::kGenicamFrameId);
+  std::vector<std::uint64_t> numbers;
+  for (const std::uint64_t id : {65533u, 65534u, 65535u, 1u, 2u, 3u}) {
+    numbers.push_back(numbering.number(id));
+    EXPECT_EQ(numbering.missed(), 0u) << "id " << id;
+  }
+  EXPECT_EQ(numbers, (std::vector<std::uint64_t>{0, 1, 2, 3, 4, 5}));
+}
+
+TEST(FrameNumbering, AGapIsTheFramesTheDeviceCountedThatNeverCame) {
+  FrameNumbering numbering(DeviceCounter::kGenicamFrameId);
+  EXPECT_EQ(numbering.number(100), 0u) << "the first frame after opening is 0, whatever its id";
+  EXPECT_EQ(numbering.number(103), 3u);
+  EXPECT_EQ(numbering.missed(), 2u) << "ids 101 and 102 never came";
+  // A gap across the wrap: 65535 and 1 never came (0 is no block id).
+  FrameNumbering wrapping(DeviceCounter::kGenicamFrameId);
+  EXPECT_EQ(wrapping.number(65534), 0u);
+  EXPECT_EQ(wrapping.number(2), 3u);
+  EXPECT_EQ(wrapping.missed(), 2u);
+  // 64-bit ids (GigE Vision 2, USB3 Vision) go past 65535 without any wrap.
+  FrameNumbering wide(DeviceCounter::kGenicamFrameId);
+  EXPECT_EQ(wide.number(65535), 0u);
+  EXPECT_EQ(wide.number(65536), 1u);
+  EXPECT_EQ(wide.number(65540), 5u);
+  EXPECT_EQ(wide.missed(), 3u);
+  EXPECT_EQ(wide.number((std::uint64_t{1} << 40) + 1), 6u) << "a wide id's own large values";
+  EXPECT_EQ(wide.number((std::uint64_t{1} << 40) + 2), 7u);
+}
+
+TEST(FrameNumbering, AfterAReopenTheCountGoesOnFromTheLastNumber) {
+  FrameNumbering numbering(DeviceCounter::kGenicamFrameId);
+  EXPECT_EQ(numbering.number(65400), 0u);
+  EXPECT_EQ(numbering.number(65401), 1u);
+  numbering.restart();  // the camera was opened again and counts from its start once more
+  EXPECT_EQ(numbering.number(65400), 2u) << "the next number, not a step back";
+  EXPECT_EQ(numbering.missed(), 0u) << "what the camera made while away is unknown";
+  EXPECT_EQ(numbering.number(65402), 4u);
+  EXPECT_EQ(numbering.missed(), 1u);
+}
+
+TEST(FrameNumbering, CountsThatStandStillOrJumpBackStillIncrease) {
+  FrameNumbering numbering(DeviceCounter::kGenicamFrameId);
+  EXPECT_EQ(numbering.number(500), 0u);
+  EXPECT_EQ(numbering.number(500), 1u) << "a camera that does not count";
+  EXPECT_EQ(numbering.number(20), 2u) << "a step back that is no 16-bit wrap";
+  EXPECT_EQ(numbering.missed(), 0u);
+  EXPECT_EQ(numbering.number(20 + (std::uint64_t{1} << 31)), 3u) << "a leap is no gap";
+  EXPECT_EQ(numbering.missed(), 0u);
+}
+
+TEST(FrameNumbering, V4l2SequencesWrapAt32Bits) {
+  FrameNumbering numbering(DeviceCounter::kV4l2Sequence);
+  EXPECT_EQ(numbering.number(0xFFFFFFFEu), 0u);
+  EXPECT_EQ(numbering.number(0xFFFFFFFFu), 1u);
+  EXPECT_EQ(numbering.number(1), 3u) << "0 is a frame of the driver's count";
+  EXPECT_EQ(numbering.missed(), 1u);
+  EXPECT_EQ(numbering.number(65535), 65537u) << "no 16-bit wrap for V4L2";
+}
+
+// The fake camera starts its ids at 65401, so its 16-bit wrap comes after 135 frames.
+TEST_F(FakeCamera, FrameNumbersCountOnAcrossTheCamerasWrapOfItsIds) {
+  paint([](std::uint8_t* data, std::size_t size, int, int, std::uint64_t frame_id, std::uint32_t) {
+    std::memset(data, static_cast<int>(frame_id % 251), size);
+  });
+  std::string error;
+  LiveSourceOptions o = options(32, 24);
+  o.fps = 200;
+  auto source = openAravisSource("Fake_1", o, error);
+  ASSERT_TRUE(source) << error;
+  Frame frame;
+  ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+  EXPECT_EQ(frame.sequence, 0u);
+  std::uint64_t previous_id = frame.device_frame_id;
+  bool wrapped = false;
+  for (std::uint64_t n = 1; n < 200; ++n) {
+    ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+    EXPECT_EQ(frame.image.at(0, 0), frame.device_frame_id % 251) << "the frame of its own id";
+    if (frame.device_frame_id < previous_id) {
+      wrapped = true;
+      EXPECT_EQ(previous_id, 65535u) << "a 16-bit block id wraps from 65535";
+      EXPECT_EQ(frame.device_frame_id, 1u) << "... to 1";
+    }
+    ASSERT_EQ(frame.sequence, n) << "one more per frame, also across the wrap (id "
+                                 << frame.device_frame_id << " after " << previous_id << ")";
+    previous_id = frame.device_frame_id;
+  }
+  EXPECT_TRUE(wrapped) << "the camera's ids never wrapped: the test tests nothing";
+  EXPECT_EQ(source->transportCounters().underruns, 0);
+}
+
+// The caller may reopen a camera in any state: here one that streams. The frame numbers go on.
+TEST_F(FakeCamera, AReopenWhileStreamingStartsAgainAndTheNumbersGoOn) {
+  paint([](std::uint8_t* data, std::size_t size, int, int, std::uint64_t frame_id, std::uint32_t) {
+    std::memset(data, static_cast<int>(frame_id % 251), size);
+  });
+  std::string error;
+  auto source = openAravisSource("Fake_1", options(32, 24), error);
+  ASSERT_TRUE(source) << error;
+  Frame frame;
+  std::uint64_t last = 0;
+  for (int k = 0; k < 5; ++k) {
+    ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+    last = frame.sequence;
+  }
+  ASSERT_EQ(source->state(), SourceState::kStreaming);
+  ASSERT_TRUE(source->reopen()) << source->lastError();
+  EXPECT_EQ(painter_->opened(), 2) << "a new device";
+  EXPECT_EQ(source->state(), SourceState::kStarting);
+  for (int k = 0; k < 5; ++k) {
+    ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+    EXPECT_EQ(frame.image.at(0, 0), frame.device_frame_id % 251) << "the new camera's frame";
+    EXPECT_EQ(frame.sequence, last + 1) << "numbers go on across a reopen, without a gap";
+    last = frame.sequence;
+  }
+  EXPECT_EQ(source->state(), SourceState::kStreaming);
+}
+
 TEST_F(FakeCamera, ASerialNumberFindsTheCamera) {
   std::string error;
   auto source = openAravisSource("1", options(80, 60), error);  // Fake_1's serial number
@@ -260,10 +475,13 @@ TEST_F(FakeCamera, AnAbsentCameraIsWaitedForWhenItsSizeIsKnown) {
   ASSERT_TRUE(source) << "an absent camera is not a config error: " << error;
   EXPECT_NE(notices().find("camera a: camera 'Fake_7' not found"), std::string::npos) << notices();
   EXPECT_EQ(source->width(), 80);
+  EXPECT_EQ(source->state(), SourceState::kLost);
   Frame frame;
   EXPECT_EQ(source->read(frame), FrameSource::Status::kLost);
   EXPECT_NE(source->lastError().find("not found"), std::string::npos) << source->lastError();
   EXPECT_FALSE(source->reopen());
+  EXPECT_EQ(source->state(), SourceState::kLost);
+  EXPECT_NE(source->lastError().find("not found"), std::string::npos) << source->lastError();
   // Without a background nothing says what size the stream will be.
   EXPECT_FALSE(openAravisSource("Fake_7", options(0, 0), error));
   EXPECT_NE(error.find("background"), std::string::npos) << error;
@@ -280,6 +498,7 @@ TEST_F(FakeCamera, ThePipelinesMapsEqualTheReferenceFusionOfTheImagesTheCamerasS
     std::uint64_t frames = 0;  // the fake camera's thread alone counts these
   };
   std::map<std::string, Shown> shown;
+  std::map<std::uint32_t, std::string> camera_of_exposure;
   TemporaryFolder folder;
   std::string config =
       "map: {origin_m: [-0.62, -1.87], cell_size_m: 0.04, width: 256, height: 256}\n"
@@ -298,23 +517,27 @@ TEST_F(FakeCamera, ThePipelinesMapsEqualTheReferenceFusionOfTheImagesTheCamerasS
     ASSERT_TRUE(
         writeGreyPng(folder / (camera.name + "-floor.png"), s.renderer->floorMask(), error));
     folder.write(camera.name + ".xml", testing::tsaiXml(camera.calibration, camera.name));
-    config += "  - {name: " + camera.name +
-              ", source: \"aravis://Fake_1\", calibration: " + camera.name +
-              ".xml, background: " + camera.name + "-bg.png, floor_mask: " + camera.name +
-              "-floor.png, fps: 30}\n";
+    // All four are Fake_1; the fake camera's exposure register (whole µs) tells them apart.
+    const std::uint32_t exposure_us = 1001 + static_cast<std::uint32_t>(k);
+    camera_of_exposure[exposure_us] = camera.name;
+    config +=
+        "  - {name: " + camera.name + ", source: \"aravis://Fake_1\", calibration: " + camera.name +
+        ".xml, background: " + camera.name + "-bg.png, floor_mask: " + camera.name +
+        "-floor.png, fps: 30, settings: {ExposureTimeAbs: " + std::to_string(exposure_us) + "}}\n";
   }
   // Frame n of each camera is the simulator's frame n: what SimRoomReference renders for a map
   // whose camera says it used frame n.
-  setFakeCameraFill(
-      [&](const std::string& name, std::uint8_t* data, std::size_t size, int width, int height) {
-        Shown& s = shown.at(name);
-        ASSERT_EQ(width, 640);
-        ASSERT_EQ(height, 480);
-        ASSERT_GE(size, 640u * 480u);
-        const std::uint64_t n = s.frames++;
-        s.renderer->render(scene->objectsAt(static_cast<double>(n) / 30.0), n, s.image, s.depth);
-        std::memcpy(data, s.image.data(), 640u * 480u);
-      });
+  paint([&](std::uint8_t* data, std::size_t size, int width, int height, std::uint64_t,
+            std::uint32_t exposure_us) {
+    ASSERT_EQ(camera_of_exposure.count(exposure_us), 1u) << "exposure " << exposure_us;
+    Shown& s = shown.at(camera_of_exposure.at(exposure_us));
+    ASSERT_EQ(width, 640);
+    ASSERT_EQ(height, 480);
+    ASSERT_GE(size, 640u * 480u);
+    const std::uint64_t n = s.frames++;
+    s.renderer->render(scene->objectsAt(static_cast<double>(n) / 30.0), n, s.image, s.depth);
+    std::memcpy(data, s.image.data(), 640u * 480u);
+  });
   const Config loaded = loadConfig(folder.write("fake.yaml", config));
   Rig rig = Rig::open(loaded);
   std::vector<CarveTable> tables = rig.buildTables(0.0);
@@ -358,6 +581,127 @@ TEST_F(FakeCamera, ThePipelinesMapsEqualTheReferenceFusionOfTheImagesTheCamerasS
   EXPECT_GE(compared, 12u);
   EXPECT_GE(all_cameras, compared / 2) << "most maps should fuse all four cameras";
   EXPECT_EQ(people, compared) << "the room always holds someone: no map is all free";
+}
+
+// The backend on its own, driven as a capture thread drives it, against a GigE Vision camera that
+// goes silent: one arv-fake-gv-camera-0.8 on 127.0.0.1, in a private network namespace (nothing
+// reaches a real network). Silence is no evidence: read() says kTimeout, and the caller decides
+// when to reopen. Last in this file: it moves the whole test process into the namespace.
+class SilentGigECamera : public ::testing::Test {
+ protected:
+  static constexpr const char* kFakeGvCamera = "/usr/bin/arv-fake-gv-camera-0.8";
+
+  void SetUp() override {
+    if (!std::filesystem::exists(kFakeGvCamera)) {
+      GTEST_SKIP() << kFakeGvCamera << " is not installed (Debian package aravis-tools-cli)";
+    }
+    if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+      GTEST_SKIP() << problem;
+    }
+    arv_enable_interface("GigEVision");  // only the namespace's loopback is there to look on
+    startCamera();
+  }
+  void TearDown() override { arv_disable_interface("GigEVision"); }
+
+  void startCamera() {
+    camera_.reset();
+    camera_.emplace(std::vector<std::string>{kFakeGvCamera, "-i", "127.0.0.1", "-s", "GV01"},
+                    folder_ / "camera");
+    ASSERT_TRUE(camera_->started());
+  }
+
+  // Reopens as a caller would, a try every 0.2 s, for at most `limit`.
+  static bool reopenWithin(FrameSource& source, std::chrono::milliseconds limit) {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    while (!source.reopen()) {
+      if (std::chrono::steady_clock::now() > end) return false;
+      std::this_thread::sleep_for(200ms);
+    }
+    return true;
+  }
+
+  // Reads for `duration` while the camera sends nothing: frames still on their way may come, and
+  // then only kTimeout, each read() within about 100 ms, and the state stays what it was. Returns
+  // the last frame number read (or `last`).
+  static std::uint64_t readThroughSilence(FrameSource& source, std::chrono::milliseconds duration,
+                                          std::uint64_t last) {
+    const auto end = std::chrono::steady_clock::now() + duration;
+    auto longest_read = 0ms;
+    int timeouts = 0;
+    while (std::chrono::steady_clock::now() < end) {
+      Frame frame;
+      const auto start = std::chrono::steady_clock::now();
+      const FrameSource::Status status = source.read(frame);
+      longest_read = std::max(longest_read, std::chrono::duration_cast<std::chrono::milliseconds>(
+                                                std::chrono::steady_clock::now() - start));
+      EXPECT_TRUE(status == FrameSource::Status::kTimeout || status == FrameSource::Status::kFrame)
+          << "status " << static_cast<int>(status) << ": " << source.lastError()
+          << " (silence alone is no evidence of a loss)";
+      if (status == FrameSource::Status::kFrame) last = frame.sequence;
+      timeouts += status == FrameSource::Status::kTimeout;
+      EXPECT_EQ(source.state(), SourceState::kStreaming) << "silence changes no state";
+    }
+    EXPECT_GE(timeouts, kSanitized ? 1 : 8) << "a second without frames";
+    EXPECT_LT(longest_read, kSanitized ? 500ms : 150ms) << "read() waits at most about 100 ms";
+    return last;
+  }
+
+  TemporaryFolder folder_;
+  std::optional<testing::ChildProcess> camera_;
+};
+
+TEST_F(SilentGigECamera, IsReopenedByItsCallerAndStreamsOnWithItsFrameNumbersGoingOn) {
+  LiveSourceOptions options;
+  options.name = "gv01";
+  options.width = 320;
+  options.height = 240;
+  options.fps = 30;
+  std::string error;
+  // The camera process may not answer yet: an absent camera is a source in the lost state.
+  auto source = openAravisSource("127.0.0.1", options, error);
+  ASSERT_TRUE(source) << error;
+  if (source->state() == SourceState::kLost) {
+    ASSERT_TRUE(reopenWithin(*source, 5000ms)) << source->lastError();
+  }
+  Frame frame;
+  std::uint64_t last = 0;
+  for (int k = 0; k < 10; ++k) {
+    ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+    if (k > 0) {
+      EXPECT_EQ(frame.sequence, last + 1) << "no frame lost on the loopback";
+    }
+    last = frame.sequence;
+  }
+
+  // Stalled: the camera process stops (it neither sends nor answers), then goes on.
+  camera_->signal(SIGSTOP);
+  last = readThroughSilence(*source, 1200ms, last);
+  camera_->signal(SIGCONT);
+  // The caller's decision after a second of silence: reopen, in the streaming state.
+  const auto reopening = std::chrono::steady_clock::now();
+  ASSERT_TRUE(reopenWithin(*source, 5000ms)) << source->lastError();
+  std::printf("a stalled camera reopened in %.2f s\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - reopening).count());
+  EXPECT_EQ(source->state(), SourceState::kStarting);
+  ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+  EXPECT_EQ(source->state(), SourceState::kStreaming);
+  EXPECT_EQ(frame.sequence, last + 1) << "frame numbers go on across the reopen";
+  last = frame.sequence;
+
+  // Killed: silence again, and no reopen succeeds until the camera is back.
+  camera_->signal(SIGKILL);
+  last = readThroughSilence(*source, 1200ms, last);
+  const auto refused = std::chrono::steady_clock::now();
+  EXPECT_FALSE(source->reopen()) << "reopened a camera that is gone";
+  std::printf("reopening a dead camera failed in %.2f s: %s\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - refused).count(),
+              source->lastError().c_str());
+  EXPECT_EQ(source->state(), SourceState::kLost);
+  EXPECT_EQ(source->read(frame), FrameSource::Status::kLost);
+  startCamera();
+  ASSERT_TRUE(reopenWithin(*source, 5000ms)) << source->lastError();
+  ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+  EXPECT_EQ(frame.sequence, last + 1) << "frame numbers go on across the reconnect";
 }
 
 }  // namespace

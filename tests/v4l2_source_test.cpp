@@ -370,16 +370,20 @@ TEST_F(V4l2Backend, AnUnplugIsLostWithinASecondAndTheReconnectReappliesTheSettin
   while (status == Status::kFrame || status == Status::kTimeout) {
     ASSERT_LT(std::chrono::steady_clock::now() - unplugged, 1s) << "not lost within 1 s";
     status = source->read(frame);
+    if (status == Status::kFrame) last = frame.sequence;
   }
   EXPECT_EQ(status, Status::kLost) << statusName(status) << ": " << source->lastError();
   EXPECT_NE(source->lastError().find("No such device"), std::string::npos) << source->lastError();
+  EXPECT_EQ(source->state(), SourceState::kLost);
 
   for (int k = 0; k < 3; ++k) {
     EXPECT_FALSE(source->reopen()) << "reopened while unplugged";
     EXPECT_NE(source->lastError().find(kDevice), std::string::npos) << source->lastError();
+    EXPECT_EQ(source->state(), SourceState::kLost);
   }
   replug();
   ASSERT_TRUE(source->reopen()) << source->lastError();
+  EXPECT_EQ(source->state(), SourceState::kStarting);
   EXPECT_EQ(source->width(), 320);
   EXPECT_EQ(source->height(), 240);
   // The replugged device starts with its gain at 0: a frame drawn at 40 shows it was set again.
@@ -388,36 +392,60 @@ TEST_F(V4l2Backend, AnUnplugIsLostWithinASecondAndTheReconnectReappliesTheSettin
     ASSERT_EQ(readPastTimeouts(*source, frame), Status::kFrame) << source->lastError();
     if (k == 0) first_after = frame.sequence;
     EXPECT_GT(frame.sequence, last) << "sequence numbers go on increasing across a reconnect";
+    if (k == 0) {
+      EXPECT_EQ(frame.sequence, last + 1) << "the first after a reconnect is the next number";
+    }
     last = frame.sequence;
     EXPECT_TRUE(showsPattern(frame, frame.sequence - first_after, 40));
   }
 }
 
-TEST_F(V4l2Backend, AStalledDriverIsLostAfterASecondWithoutFrames) {
-  auto source = open(sized(320, 240, 60));
+// A driver that stalls (streams, finishes no frame) gives the backend no evidence of anything:
+// read() says kTimeout, each within about 100 ms, however long the silence lasts. How long is too
+// long is the caller's decision (the daemon's, for every backend alike); here the test decides
+// after a second, as the daemon does, and reopens the device while it is still streaming. The
+// stuck stream does not come back by itself, the reopen brings it back, and the frame numbers go
+// on from where they were.
+TEST_F(V4l2Backend, AStalledDriverOnlyTimesOutAndTheCallersReopenBringsItBack) {
+  auto source = open(sized(320, 240, 60, {{"gain", "40"}}));
   ASSERT_TRUE(source) << error_;
   Frame frame;
   ASSERT_EQ(readPastTimeouts(*source, frame), Status::kFrame) << source->lastError();
+  std::uint64_t last = frame.sequence;
   stall();
   const auto stalled = std::chrono::steady_clock::now();
-  Status status = Status::kFrame;
   auto longest_read = 0ms;
-  while (status == Status::kFrame || status == Status::kTimeout) {
-    ASSERT_LT(std::chrono::steady_clock::now() - stalled, 3s) << "a stall is never noticed";
+  int timeouts = 0;
+  while (std::chrono::steady_clock::now() - stalled < 1200ms) {
     const auto start = std::chrono::steady_clock::now();
-    status = source->read(frame);
+    const Status status = source->read(frame);
     longest_read = std::max(longest_read, std::chrono::duration_cast<std::chrono::milliseconds>(
                                               std::chrono::steady_clock::now() - start));
+    // Frames the driver finished before it stalled may still come; then nothing.
+    ASSERT_TRUE(status == Status::kTimeout || status == Status::kFrame)
+        << statusName(status) << ": " << source->lastError()
+        << " (silence alone is no evidence of a loss)";
+    if (status == Status::kFrame) {
+      last = frame.sequence;
+    } else {
+      ++timeouts;
+    }
+    EXPECT_EQ(source->state(), SourceState::kStreaming) << "silence changes no state";
   }
-  const auto after = std::chrono::steady_clock::now() - stalled;
-  EXPECT_EQ(status, Status::kLost) << statusName(status);
-  EXPECT_NE(source->lastError().find("stalled"), std::string::npos) << source->lastError();
-  EXPECT_GT(after, 900ms);
-  EXPECT_LT(after, 1300ms) << "lost about a second after the last frame";
+  EXPECT_GE(timeouts, 8) << "a second without frames";
   EXPECT_LT(longest_read, 150ms) << "read() waits at most about 100 ms";
+  // The stall is over, yet the stuck stream stays stuck: only a new stream would deliver.
   unstall();
+  EXPECT_EQ(readPastTimeouts(*source, frame, 300ms), Status::kTimeout) << source->lastError();
+
+  // The caller's decision: reopen, in the streaming state (the source never said kLost).
   ASSERT_TRUE(source->reopen()) << source->lastError();
+  EXPECT_EQ(source->state(), SourceState::kStarting);
   ASSERT_EQ(readPastTimeouts(*source, frame), Status::kFrame) << source->lastError();
+  EXPECT_EQ(source->state(), SourceState::kStreaming);
+  EXPECT_EQ(frame.sequence, last + 1) << "frame numbers go on across the reopen";
+  // The new stream's first frame, with the gain applied again.
+  EXPECT_TRUE(showsPattern(frame, 0, 40));
 }
 
 TEST_F(V4l2Backend, ADeviceAbsentAtStartIsASourceInTheLostState) {
@@ -426,6 +454,7 @@ TEST_F(V4l2Backend, ADeviceAbsentAtStartIsASourceInTheLostState) {
   ASSERT_TRUE(source) << "an absent camera is not a config error: " << error_;
   EXPECT_EQ(source->width(), 320);
   EXPECT_EQ(source->height(), 240);
+  EXPECT_EQ(source->state(), SourceState::kLost);
   Frame frame;
   EXPECT_EQ(source->read(frame), Status::kLost);
   EXPECT_NE(source->lastError().find(kDevice), std::string::npos) << source->lastError();

@@ -191,6 +191,7 @@ struct Device {
   bool streaming = false;
   std::int64_t stream_start_ns = 0;
   std::uint64_t next_frame = 0;
+  bool stuck = false;  // this stream stalled: it stays so until it is stopped and started again
 };
 
 struct Handle {
@@ -318,11 +319,11 @@ void draw(Device& device, std::uint32_t index, std::uint64_t frame, std::int64_t
 void advance(Device& device) {
   if (!device.streaming) return;
   const std::int64_t now = monotonicNs();
-  const bool stalled = fileExists(device.config.stall_file);
+  if (fileExists(device.config.stall_file)) device.stuck = true;
   while (nextDueNs(device) <= now) {
     const std::int64_t due = nextDueNs(device);
     const std::uint64_t frame = device.next_frame++;
-    if (stalled || device.queued.empty()) continue;
+    if (device.stuck || device.queued.empty()) continue;
     const std::uint32_t index = device.queued.front();
     device.queued.pop_front();
     draw(device, index, frame, due);
@@ -509,6 +510,7 @@ int deviceIoctl(int fd, Device& device, unsigned long request, void* argument) {
           device.streaming = true;
           device.stream_start_ns = monotonicNs();
           device.next_frame = 0;
+          device.stuck = false;  // a new stream; stuck again at once while the stall file exists
         }
         return 0;
       }

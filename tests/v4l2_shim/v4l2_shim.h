@@ -27,7 +27,9 @@ inline constexpr const char* kErrorEveryVariable = "OCCMAP_V4L2_SHIM_ERROR_EVERY
 // is dead for good (ioctls ENODEV, poll POLLERR|POLLHUP). Once it is removed, open() works again
 // on a freshly plugged device (default format, controls at their defaults).
 inline constexpr const char* kUnplugFileVariable = "OCCMAP_V4L2_SHIM_UNPLUG_FILE";
-// While this file exists the driver stalls: it streams but finishes no frame.
+// While this file exists the driver stalls: it streams but finishes no frame. A stream that stalled
+// stays stalled, even once the file is gone, until it is stopped and started again (STREAMOFF,
+// STREAMON): as with drivers that get stuck, a reopen is what brings it back.
 inline constexpr const char* kStallFileVariable = "OCCMAP_V4L2_SHIM_STALL_FILE";
 // Set (to anything): the device cannot stream (no V4L2_CAP_STREAMING), like a read()-only driver.
 inline constexpr const char* kNoStreamingVariable = "OCCMAP_V4L2_SHIM_NO_STREAMING";
