@@ -262,18 +262,23 @@ void differenceCase(benchmark::State& state, const std::string& config,
   finish(state);
 }
 
+// Each frame set of the rotation as the fusion thread gets it: one changed-pixel mask per camera.
+std::vector<std::vector<const std::uint8_t*>> maskSets(const ConfigData& data) {
+  std::vector<std::vector<const std::uint8_t*>> sets(data.mask_rotation.size());
+  for (std::size_t s = 0; s < sets.size(); ++s) {
+    for (std::size_t k = 0; k < data.backgrounds.size(); ++k) {
+      sets[s].push_back(data.mask_rotation[s].data() + k * data.mask_bytes);
+    }
+  }
+  return sets;
+}
+
 // The fusion thread's share alone: masks as the capture threads leave them.
 void fuseCase(benchmark::State& state, const std::string& config, const std::string& mode_name,
               bool cold) {
   ConfigData& data = configData(config);
   FusionKernel& kernel = *mode(data, mode_name).kernel;
-  const std::size_t cameras = data.backgrounds.size();
-  std::vector<std::vector<const std::uint8_t*>> changed(data.mask_rotation.size());
-  for (std::size_t s = 0; s < changed.size(); ++s) {
-    for (std::size_t k = 0; k < cameras; ++k) {
-      changed[s].push_back(data.mask_rotation[s].data() + k * data.mask_bytes);
-    }
-  }
+  const std::vector<std::vector<const std::uint8_t*>> changed = maskSets(data);
   std::vector<CellState> out(data.rig->config().map.cellCount());
   std::size_t i = 0;
   for (auto _ : state) {
@@ -293,13 +298,7 @@ void pacedFuseCase(benchmark::State& state, const std::string& config,
                    const std::string& mode_name) {
   ConfigData& data = configData(config);
   FusionKernel& kernel = *mode(data, mode_name).kernel;
-  const std::size_t cameras = data.backgrounds.size();
-  std::vector<std::vector<const std::uint8_t*>> changed(data.mask_rotation.size());
-  for (std::size_t s = 0; s < changed.size(); ++s) {
-    for (std::size_t k = 0; k < cameras; ++k) {
-      changed[s].push_back(data.mask_rotation[s].data() + k * data.mask_bytes);
-    }
-  }
+  const std::vector<std::vector<const std::uint8_t*>> changed = maskSets(data);
   std::vector<CellState> out(data.rig->config().map.cellCount());
   constexpr auto kPeriod = std::chrono::nanoseconds(1'000'000'000 / 60);
   auto next = std::chrono::steady_clock::now();

@@ -27,6 +27,7 @@
 #include "config/calibration_file.h"
 #include "config/config.h"
 #include "daemon/pipeline.h"
+#include "downward_rig.h"
 #include "notify_listener.h"
 #include "sim_room_config.h"
 #include "timing.h"
@@ -466,27 +467,9 @@ class OddFramesSource final : public FrameSource {
 };
 
 TEST(BadFrames, FramesOfAnotherSizeAndDeviceErrorsAreDroppedAndCountedInTheStatus) {
-  Config config = parseConfig(
-      "map: {origin_m: [-0.6, -0.6], cell_size_m: 0.04, width: 30, height: 30}\n"
-      "fusion: {threshold: 25, column_height_m: 0}\n"
-      "transport: {lcm_url: \"memq://\"}\n"
-      "cameras:\n  - {name: odd, source: \"sim://room/c0\", fps: 100}\n",
-      "odd.yaml");
-  RigCamera odd;
-  odd.name = "odd";
-  odd.camera =
-      std::make_unique<Camera>(std::make_shared<TsaiCamera>(parseTsaiXml(kDownwardXml, "down.xml")),
-                               LengthUnit::kMillimetre, 100, 100);
-  odd.background = Image(100, 100, 120);
-  odd.threshold = 25;
-  odd.source = std::make_unique<OddFramesSource>();
-  std::vector<RigCamera> cameras;
-  cameras.push_back(std::move(odd));
-  Rig rig = Rig::assemble(config, std::move(cameras));
-  std::vector<CarveTable> tables = rig.buildTables(0.0);
   Heard heard;
-  Pipeline pipeline(PreparedRig{std::move(rig), std::move(tables), 0.0}, heard.network.connect(),
-                    listenTo(heard));
+  Pipeline pipeline(testing::downwardRig("odd", std::make_unique<OddFramesSource>(), 0.0),
+                    heard.network.connect(), listenTo(heard));
   pipeline.start();
   const bool counted = waitFor(heard, [](const Heard& h) {
     return h.status && h.status->cameras.size() == 1 && h.status->cameras[0].frames_dropped >= 10;

@@ -18,16 +18,15 @@
 #include "allocation_counter.h"
 #include "base/clock.h"
 #include "bus_listener.h"
-#include "config/calibration_file.h"
 #include "config/config.h"
 #include "daemon/liveness.h"
+#include "downward_rig.h"
 #include "sim_reference.h"
 #include "sim_room_config.h"
 #include "temporary_folder.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
 #include "transport/memory_bus.h"
-#include "tsai_xml.h"
 
 namespace occmap {
 namespace {
@@ -212,29 +211,12 @@ class FlakySource final : public FrameSource {
 // The status after camera errors: the error text goes into fixed room, so that reporting it
 // allocates nothing (two statuses a second for seconds, with a camera failing all along).
 TEST(Pipeline, TheStatusAllocatesNothingEvenAfterCameraErrors) {
-  Config config = parseConfig(
-      "map: {origin_m: [-0.6, -0.6], cell_size_m: 0.04, width: 30, height: 30}\n"
-      "fusion: {threshold: 25, column_height_m: 0.3}\n"
-      "transport: {lcm_url: \"memq://\"}\n"
-      "cameras:\n  - {name: flaky, source: \"sim://room/c0\", fps: 100}\n",
-      "flaky.yaml");
-  RigCamera flaky;
-  flaky.name = "flaky";
-  flaky.camera = std::make_unique<Camera>(
-      std::make_shared<TsaiCamera>(parseTsaiXml(testing::kDownwardXml, "down.xml")),
-      LengthUnit::kMillimetre, 100, 100);
-  flaky.background = Image(100, 100, 120);
-  flaky.threshold = 25;
-  flaky.source = std::make_unique<FlakySource>();
-  std::vector<RigCamera> cameras;
-  cameras.push_back(std::move(flaky));
-  Rig rig = Rig::assemble(config, std::move(cameras));
-  std::vector<CarveTable> tables = rig.buildTables(0.3);
   auto bus = std::make_unique<LcmBus>("memq://");
   ASSERT_TRUE(bus->good());
   PipelineOptions options;
   options.status_period = std::chrono::milliseconds(100);
-  Pipeline pipeline(PreparedRig{std::move(rig), std::move(tables), 0.3}, std::move(bus), options);
+  Pipeline pipeline(testing::downwardRig("flaky", std::make_unique<FlakySource>(), 0.3),
+                    std::move(bus), options);
   pipeline.start();
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // errors met, statuses sent
   ASSERT_GT(pipeline.framesDropped(), 5u) << "the camera should have failed by now";
