@@ -229,7 +229,16 @@ void RemoteControl::recaptureLoop() {
     wakeup_.drain();
     if (stopping_.load(std::memory_order_relaxed)) break;
     if (!recapture_busy_.load(std::memory_order_acquire)) continue;
-    recapture(job_camera_, job_frames_, job_request_id_);
+    // No exception leaves this thread: a recapture that fails in a way not foreseen below is
+    // refused like the others, and the daemon runs on with the background it had.
+    try {
+      recapture(job_camera_, job_frames_, job_request_id_);
+    } catch (const std::exception& error) {
+      cameras_[job_camera_]->recorder.finish();
+      finishRecapture(job_request_id_, occmap::control_reply_t::OUTCOME_REFUSED,
+                      "camera %s: the recapture failed (%s); the background stays as it was",
+                      cameras_[job_camera_]->name.c_str(), error.what());
+    }
     recapture_busy_.store(false, std::memory_order_release);
   }
 }
