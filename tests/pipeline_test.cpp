@@ -24,6 +24,7 @@
 #include "sim_reference.h"
 #include "sim_room_config.h"
 #include "temporary_folder.h"
+#include "timing.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
 #include "transport/memory_bus.h"
@@ -129,7 +130,9 @@ TEST_P(PipelineAtHeight, ShutdownUnderLoadLeavesNoThreadAndLosesNoFusedMap) {
   PreparedRig opened = prepareRig(config);
   const std::size_t threads_before = threadCount();
   std::mt19937 random(7);
-  for (int trial = 0; trial < 12; ++trial) {
+  // Twelve stops at random moments; six under a sanitizer, where each trial's rig takes seconds.
+  const int trials = testing::kSanitized ? 6 : 12;
+  for (int trial = 0; trial < trials; ++trial) {
     MemoryNetwork network;
     std::atomic<std::uint64_t> received{0};
     std::size_t threads_with_listener = 0;
