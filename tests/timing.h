@@ -6,7 +6,6 @@
 // eventually with deadlines stretched by kSlowdown; rates belong to the plain build and the
 // benchmarks.
 #include <chrono>
-#include <fstream>
 
 namespace occmap::testing {
 
@@ -23,14 +22,6 @@ inline constexpr int kSlowdown = 1;
 template <typename Rep, typename Period>
 constexpr auto eventually(std::chrono::duration<Rep, Period> plain) {
   return plain * kSlowdown;
-}
-
-// The largest socket receive buffer this kernel grants (net.core.rmem_max), or 0 if unknown.
-inline long socketReceiveBufferLimit() {
-  std::ifstream file("/proc/sys/net/core/rmem_max");
-  long bytes = 0;
-  file >> bytes;
-  return file ? bytes : 0;
 }
 
 }  // namespace occmap::testing
