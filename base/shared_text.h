@@ -29,8 +29,8 @@ class SharedText {
     va_start(arguments, format);
     const int written = std::vsnprintf(line, sizeof line, format, arguments);
     va_end(arguments);
-    set(std::string_view(
-        line, written < 0 ? 0 : std::min(static_cast<std::size_t>(written), Capacity)));
+    set(std::string_view(line,
+                         written < 0 ? 0 : std::min(static_cast<std::size_t>(written), Capacity)));
   }
   // Into `out`, which allocates nothing once its capacity reaches Capacity (reserve it once).
   void copyTo(std::string& out) const {

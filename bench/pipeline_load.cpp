@@ -1,10 +1,11 @@
-// The pipeline under load: occmapd's own Pipeline (capture threads, newest-frame buffers, fusion, the publisher thread)
-// fed by simulated cameras whose frames were rendered before the clock starts, so that only what
-// the daemon does is measured: copying each frame in and marking its changed pixels, fusing,
-// encoding and publishing. K cameras at F fps for S seconds, maps over UDP multicast in a private
-// network namespace to a subscriber in another process (`occmap view`). It reports the latency
-// from the arrival of a map's newest frame to the return of its publish (p50, p99, max), the CPU
-// time per map and the share of one core it took, frames dropped and maps the subscriber lost.
+// The pipeline under load: occmapd's own Pipeline (capture threads, newest-frame buffers, fusion,
+// the publisher thread) fed by simulated cameras whose frames were rendered before the clock
+// starts, so that only what the daemon does is measured: copying each frame in and marking its
+// changed pixels, fusing, encoding and publishing. K cameras at F fps for S seconds, maps over UDP
+// multicast in a private network namespace to a subscriber in another process (`occmap view`). It
+// reports the latency from the arrival of a map's newest frame to the return of its publish (p50,
+// p99, max), the CPU time per map and the share of one core it took, frames dropped and maps the
+// subscriber lost.
 //
 //   pipeline_load --rig paper --fps 60 --seconds 20      4 x 640x480, 512 x 512 cells
 //   pipeline_load --rig large --fps 30 --seconds 20      8 x 1920x1080, 1024 x 1024 cells

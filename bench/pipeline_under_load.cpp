@@ -1,13 +1,10 @@
 #include "bench/pipeline_under_load.h"
 
-#include <stdexcept>
-
-#include "transport/lcm_bus.h"
-
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <stdexcept>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -17,6 +14,7 @@
 #include <sys/resource.h>
 
 #include "base/clock.h"
+#include "transport/lcm_bus.h"
 
 namespace occmap::bench {
 namespace {

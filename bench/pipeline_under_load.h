@@ -1,9 +1,10 @@
 #pragma once
-// occmapd's own Pipeline (capture threads, newest-frame buffers, fusion thread, the publisher thread) fed by simulated
-// cameras whose frames were rendered before the clock starts, so that only what the daemon does
-// costs time: copying each frame in and marking its changed pixels, fusing, encoding, publishing.
-// With multicast, `occmap view` in another process subscribes to the maps and counts those lost.
-// Shared by bench/pipeline_load (latency, CPU) and bench/soak (memory, descriptors, drops).
+// occmapd's own Pipeline (capture threads, newest-frame buffers, fusion thread, the publisher
+// thread) fed by simulated cameras whose frames were rendered before the clock starts, so that only
+// what the daemon does costs time: copying each frame in and marking its changed pixels, fusing,
+// encoding, publishing. With multicast, `occmap view` in another process subscribes to the maps and
+// counts those lost. Shared by bench/pipeline_load (latency, CPU) and bench/soak (memory,
+// descriptors, drops).
 
 #include <memory>
 #include <string>

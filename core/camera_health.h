@@ -19,7 +19,8 @@ namespace occmap {
 
 struct CameraHealthPolicy {
   // Silence after a frame that makes a camera down, at least (a slow camera gets three of its
-  // frame periods): with the fusion thread's 100 ms wake-up, down within a second of its last frame.
+  // frame periods): with the fusion thread's 100 ms wake-up, down within a second of its last
+  // frame.
   std::int64_t down_after_ns = 900'000'000;
   // How long a camera may take to deliver its first frame after it was opened (or reopened).
   std::int64_t first_frame_timeout_ns = 3'000'000'000;

@@ -36,8 +36,7 @@ std::int64_t FrameSetAssembler::nextDeadline() const {
 bool FrameSetAssembler::uses(std::size_t k, CameraState state, std::int64_t now,
                              std::int64_t recent_ns) const {
   const Camera& camera = cameras_[k];
-  return camera.held && state != CameraState::kDown &&
-         now - camera.arrival_ns <= recent_ns;
+  return camera.held && state != CameraState::kDown && now - camera.arrival_ns <= recent_ns;
 }
 
 void FrameSetAssembler::fused(std::int64_t now) {

@@ -18,7 +18,7 @@
 namespace occmap {
 
 struct FrameSetPolicy {
-  std::int64_t max_wait_ns = 50'000'000;   // fusion.max_wait_ms
+  std::int64_t max_wait_ns = 50'000'000;  // fusion.max_wait_ms
   std::int64_t heartbeat_ns = 1'000'000'000;
 };
 

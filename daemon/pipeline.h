@@ -90,7 +90,9 @@ class Pipeline {
   std::uint64_t mapsSkipped() const { return maps_skipped_.load(std::memory_order_relaxed); }
   // Rounds of the publisher thread's loop (at least ten a second while it runs): the watchdog's
   // proof that publishing is not stuck.
-  std::uint64_t publisherRounds() const { return publisher_rounds_.load(std::memory_order_relaxed); }
+  std::uint64_t publisherRounds() const {
+    return publisher_rounds_.load(std::memory_order_relaxed);
+  }
   // Every camera has delivered a frame or been marked down: the daemon may say READY.
   bool camerasReportedIn() const;
   // The fusion or the publisher thread ended on an error (logged): no more maps will come.
@@ -128,7 +130,8 @@ class Pipeline {
     std::atomic<std::uint64_t> frames_overtaken{0};
     std::atomic<std::int64_t> last_capture_us{0};
     std::atomic<std::int32_t> reconnects{0};
-    SharedText<256> last_error;  // why it last failed or went down (fixed: the status allocates nothing)
+    SharedText<256>
+        last_error;  // why it last failed or went down (fixed: the status allocates nothing)
     RateLimit error_warnings{std::chrono::seconds(10)};  // bad frames
     RateLimit down_warnings{std::chrono::seconds(10)};   // a flapping camera logs now and then
   };

@@ -33,7 +33,6 @@ ControlKey keyOf(const Config& config) {
                         {config.file.string(), config.control.key_file_line, "control.key_file"});
 }
 
-
 }  // namespace
 
 RemoteControl::RemoteControl(const Config& config, std::vector<CameraControl*> cameras,

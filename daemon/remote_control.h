@@ -24,7 +24,6 @@
 #include <occmap/control_reply_t.hpp>
 
 #include "base/event_fd.h"
-
 #include "config/config.h"
 #include "core/background_handover.h"
 #include "core/frame_recorder.h"

@@ -12,8 +12,7 @@ inline std::string simRoomConfig(const std::string& lcm_url = "memq://",
                                  const std::string& column_height_m = "0") {
   return "map: {origin_m: [-0.62, -1.87], cell_size_m: 0.04, width: 256, height: 256}\n"
          "fusion: {threshold: 20, column_height_m: " +
-         column_height_m +
-         extra_fusion +
+         column_height_m + extra_fusion +
          "}\n"
          "transport: {lcm_url: \"" +
          lcm_url +

@@ -11,10 +11,9 @@ StatusRequests::StatusRequests(double max_answers_per_s, std::int64_t now_ns)
     : max_per_s_(max_answers_per_s), tokens_(max_answers_per_s), last_refill_ns_(now_ns) {}
 
 void StatusRequests::subscribe(Bus& bus, const std::string& status_channel) {
-  bus.subscribe(statusRequestChannel(status_channel),
-                [this](const std::uint8_t* data, std::size_t size, std::int64_t) {
-                  take(data, size);
-                });
+  bus.subscribe(
+      statusRequestChannel(status_channel),
+      [this](const std::uint8_t* data, std::size_t size, std::int64_t) { take(data, size); });
 }
 
 void StatusRequests::take(const std::uint8_t* data, std::size_t size) {
@@ -28,8 +27,8 @@ void StatusRequests::take(const std::uint8_t* data, std::size_t size) {
 }
 
 void StatusRequests::refill(std::int64_t now_ns) {
-  tokens_ = std::min(max_per_s_, tokens_ + static_cast<double>(now_ns - last_refill_ns_) / 1e9 *
-                                               max_per_s_);
+  tokens_ = std::min(max_per_s_,
+                     tokens_ + static_cast<double>(now_ns - last_refill_ns_) / 1e9 * max_per_s_);
   last_refill_ns_ = now_ns;
 }
 
