@@ -37,12 +37,6 @@ class SharedText {
     const std::lock_guard lock(mutex_);
     out.assign(text_, size_);
   }
-  std::string str() const {
-    std::string out;
-    copyTo(out);
-    return out;
-  }
-  static constexpr std::size_t capacity() { return Capacity; }
 
  private:
   mutable std::mutex mutex_;

@@ -101,12 +101,10 @@ PipelineUnderLoad::PipelineUnderLoad(const LoadOptions& o, bool multicast, const
                    subscriber_->out().c_str(), subscriber_->err().c_str());
     }
   }
-  auto bus = std::make_unique<LcmBus>(url);
-  if (!bus->good()) throw std::runtime_error("cannot open LCM at " + url);
   pipeline_ = std::make_unique<Pipeline>(
       PreparedRig{Rig::assemble(std::move(daemon_config), std::move(cameras)), std::move(tables),
                   o.column_height_m},
-      std::move(bus));
+      LcmBus::open(url));
 }
 
 long long PipelineUnderLoad::lostSoFar() {

@@ -47,21 +47,6 @@ enum class SourceState : std::uint8_t {
   kEnded,      // a recorded or simulated source gave its last frame (read() said kEnd)
 };
 
-// "starting", "streaming", "lost", "ended": for logs and status lines.
-constexpr const char* sourceStateName(SourceState state) {
-  switch (state) {
-    case SourceState::kStarting:
-      return "starting";
-    case SourceState::kStreaming:
-      return "streaming";
-    case SourceState::kLost:
-      return "lost";
-    case SourceState::kEnded:
-      return "ended";
-  }
-  return "?";
-}
-
 // Where a camera's frames come from. Off-line sources (files, the simulator) deliver their frames
 // in order and then end; read() blocks no longer than it takes to produce the next frame.
 //

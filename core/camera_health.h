@@ -79,8 +79,6 @@ class CameraHealth {
                           opened_ns_.load(std::memory_order_relaxed));
   }
   bool isLost() const { return lost_.load(std::memory_order_relaxed); }
-  // When the newest frame arrived (0: none yet).
-  std::int64_t lastFrameNs() const { return last_frame_ns_.load(std::memory_order_relaxed); }
   std::int64_t downAfterNs() const { return down_after_ns_; }
 
  private:

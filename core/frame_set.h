@@ -43,8 +43,6 @@ class FrameSetAssembler {
   // A map was made at `now`: every frame held is old news, the next set opens with the next frame.
   void fused(std::int64_t now);
 
-  bool isFresh(std::size_t k) const { return cameras_[k].fresh; }
-
  private:
   struct Camera {
     std::int64_t arrival_ns = 0;  // of its newest frame

@@ -69,29 +69,20 @@ PreparedRig prepare(const Config& config, bool open_live_cameras) {
   return prepared;
 }
 
-// SIGHUP: the new config replaces the running one only once it is wholly valid. Its cameras are
-// checked and its tables built while the old pipeline runs; then the old one stops, hands over
-// every camera connection the new config leaves unchanged, and the new one starts. A camera that
-// refuses the new settings puts the old config back (and the error goes on to the caller). Only
-// when even the old config cannot be restored does `pipeline` end up empty.
-// The bus a config publishes on. A daemon that can publish nothing must not say it is ready.
-std::unique_ptr<Bus> openBus(const Config& config) {
-  auto bus = std::make_unique<LcmBus>(config.transport.lcm_url);
-  if (!bus->good()) {
-    throw std::runtime_error("cannot open LCM at " + config.transport.lcm_url +
-                             " (a udpm:// URL needs a network with a multicast route; see "
-                             "docs/daemon.md)");
-  }
-  return bus;
-}
-
+// The pipeline of a prepared config, on its bus (a daemon that can publish nothing must not say
+// it is ready: LcmBus::open throws), started.
 std::unique_ptr<Pipeline> startPipeline(PreparedRig prepared, const PipelineOptions& options) {
-  std::unique_ptr<Bus> bus = openBus(prepared.rig.config());
+  std::unique_ptr<Bus> bus = LcmBus::open(prepared.rig.config().transport.lcm_url);
   auto pipeline = std::make_unique<Pipeline>(std::move(prepared), std::move(bus), options);
   pipeline->start();
   return pipeline;
 }
 
+// SIGHUP: the new config replaces the running one only once it is wholly valid. Its cameras are
+// checked and its tables built while the old pipeline runs; then the old one stops, hands over
+// every camera connection the new config leaves unchanged, and the new one starts. A camera that
+// refuses the new settings puts the old config back (and the error goes on to the caller). Only
+// when even the old config cannot be restored does `pipeline` end up empty.
 void reload(std::unique_ptr<Pipeline>& pipeline, const std::string& file,
             const PipelineOptions& options) {
   PreparedRig next = prepare(loadConfig(file), false);  // InputError: the old one runs on
@@ -100,7 +91,7 @@ void reload(std::unique_ptr<Pipeline>& pipeline, const std::string& file,
   pipeline.reset();
   try {
     next.rig.openLiveCameras(&old.rig);
-    std::unique_ptr<Bus> bus = openBus(next.rig.config());
+    std::unique_ptr<Bus> bus = LcmBus::open(next.rig.config().transport.lcm_url);
     pipeline = std::make_unique<Pipeline>(std::move(next), std::move(bus), options);
     pipeline->start();
   } catch (const std::exception&) {
@@ -200,10 +191,12 @@ int run(const Options& options) {
           const TimeHistogram& latency = pipeline->publishLatency();
           const TimeHistogram& fusion = pipeline->fusionTimes();
           logLine(LogLevel::kNotice,
-                  "stopped after %llu maps (%llu skipped); newest frame to published: p50 %.2f "
+                  "stopped after %llu maps (%llu skipped, %llu frames overtaken by newer ones); "
+                  "newest frame to published: p50 %.2f "
                   "ms, p99 %.2f ms, max %.2f ms; fusion p50 %.2f ms, p99 %.2f ms",
                   static_cast<unsigned long long>(pipeline->mapsPublished()),
                   static_cast<unsigned long long>(pipeline->mapsSkipped()),
+                  static_cast<unsigned long long>(pipeline->framesOvertaken()),
                   latency.percentileMs(0.5), latency.percentileMs(0.99), latency.maxMs(),
                   fusion.percentileMs(0.5), fusion.percentileMs(0.99));
           return kExitOk;

@@ -80,7 +80,7 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
     controls.push_back(&cameras_.back()->control);
     report_.cameras[k].name = camera.name;
     report_.cameras[k].source = config.cameras[k].source;
-    report_.cameras[k].last_error.reserve(decltype(Camera::last_error)::capacity());
+    report_.cameras[k].last_error.reserve(kMaxErrorText);
   }
   states_.assign(cameras, CameraState::kStarting);
   logged_states_.assign(cameras, CameraState::kStarting);
@@ -121,9 +121,9 @@ void Pipeline::threadFailed(const char* thread, std::size_t camera, const char* 
 void Pipeline::start() {
   if (started_) return;
   started_ = true;
-  start_ns_ = monotonicNanoseconds();
-  for (const auto& camera : cameras_) camera->health.opened(start_ns_);
-  frame_set_.start(start_ns_);
+  const std::int64_t now = monotonicNanoseconds();
+  for (const auto& camera : cameras_) camera->health.opened(now);
+  frame_set_.start(now);
   control_->start();
   // threads_: the publisher, fusion, then one per camera (stop() joins them in reverse).
   threads_.emplace_back([this] { guarded("publisher", kNoCamera, [this] { publisherLoop(); }); });

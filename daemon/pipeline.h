@@ -130,8 +130,8 @@ class Pipeline {
     std::atomic<std::uint64_t> frames_overtaken{0};
     std::atomic<std::int64_t> last_capture_us{0};
     std::atomic<std::int32_t> reconnects{0};
-    SharedText<256>
-        last_error;  // why it last failed or went down (fixed: the status allocates nothing)
+    // Why it last failed or went down, in fixed room: the status allocates nothing to carry it.
+    SharedText<kMaxErrorText> last_error;
     RateLimit error_warnings{std::chrono::seconds(10)};  // bad frames
     RateLimit down_warnings{std::chrono::seconds(10)};   // a flapping camera logs now and then
   };
@@ -167,7 +167,6 @@ class Pipeline {
   // Publisher thread state.
   MapPublisher map_publisher_;
   DaemonReport report_;
-  std::int64_t start_ns_ = 0;
 
   // Stop requests, one per stage so that each drains what the one before it left.
   std::atomic<bool> stopping_{false};  // stop() was called; the capture threads end

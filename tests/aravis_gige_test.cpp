@@ -17,6 +17,7 @@
 #include "child_process.h"
 #include "network_namespace.h"
 #include "notify_listener.h"
+#include "timing.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
 
@@ -35,11 +36,7 @@ const std::string kConfig = OCCMAP_SOURCE_DIR "/examples/aravis-fake.yaml";
 const std::string kUrl = "udpm://239.255.76.67:7667?ttl=0";  // the example's (LCM's default)
 constexpr int kCameras = 4;
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr bool kSanitized = true;  // rates and latencies are not what is under test there
-#else
-constexpr bool kSanitized = false;
-#endif
+using testing::kSanitized;  // rates and latencies are not what is under test there
 // Maps published in 10 s by four 30 fps cameras, at least: two thirds of 300 in the plain build
 // (see there), half that under ASan; under TSan the fusion of four 640x480 frames into the 512x512
 // map takes about 100 ms (69 maps in 10 s measured on this 2-core machine), so a third of that.

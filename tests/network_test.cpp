@@ -40,7 +40,6 @@ using testing::kSanitized;
 // seq gaps: what is checked there is that every map received is whole and in order. In the plain
 // build none may be lost.
 const std::string kSubscriberUrl = kSanitized ? kUrl + "&recv_buf_size=4194304" : kUrl;
-const bool kLossesExcused = kSanitized;
 
 // The number after `label` in `text` ("received 300 maps" -> 300), or -1.
 long long numberAfter(const std::string& text, const std::string& label) {
@@ -49,11 +48,11 @@ long long numberAfter(const std::string& text, const std::string& label) {
   return std::atoll(text.c_str() + at + label.size());
 }
 
-// Maps lost by the subscriber: none, but under a sanitizer (see kLossesExcused).
+// Maps lost by the subscriber: none, but under a sanitizer (see kSubscriberUrl).
 void expectNoneLost(const std::string& view_output, long long maps) {
   const long long lost = numberAfter(view_output, ", lost ");
   EXPECT_GE(lost, 0) << view_output;
-  if (!kLossesExcused) {
+  if (!kSanitized) {
     EXPECT_EQ(lost, 0) << view_output;
   } else if (lost > 0) {
     std::printf(

@@ -1,5 +1,7 @@
 #include "transport/lcm_bus.h"
 
+#include <stdexcept>
+
 #include <lcm/lcm-cpp.hpp>
 
 namespace occmap {
@@ -24,6 +26,16 @@ void dispatch(const lcm_recv_buf_t* buffer, const char* /*channel*/, void* conte
 LcmBus::LcmBus(const std::string& url) : url_(url), lcm_(std::make_unique<lcm::LCM>(url)) {}
 
 LcmBus::~LcmBus() = default;
+
+std::unique_ptr<LcmBus> LcmBus::open(const std::string& url) {
+  auto bus = std::make_unique<LcmBus>(url);
+  if (!bus->good()) {
+    throw std::runtime_error("cannot open LCM at " + url +
+                             " (a udpm:// URL needs a network with a multicast route; see "
+                             "docs/daemon.md)");
+  }
+  return bus;
+}
 
 bool LcmBus::good() const { return lcm_->good(); }
 

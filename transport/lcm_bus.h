@@ -30,6 +30,9 @@ class LcmBus final : public Bus {
   // "" is LCM's default: $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0). Check good().
   explicit LcmBus(const std::string& url);
   ~LcmBus() override;
+  // Opened and good, or std::runtime_error saying what to check: for a program that can do
+  // nothing without its bus (occmapd, the benchmarks).
+  static std::unique_ptr<LcmBus> open(const std::string& url);
 
   // Whether LCM could be opened for the URL (a bad URL, a socket that cannot be made: false).
   bool good() const;

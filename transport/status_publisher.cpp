@@ -11,7 +11,10 @@ StatusPublisher::StatusPublisher(std::string status_channel, std::size_t cameras
                                  std::int64_t now_ns)
     : status_channel_(std::move(status_channel)),
       control_status_channel_(controlStatusChannel(status_channel_)),
-      samples_(kRateSamples, Sample{now_ns, 0, std::vector<std::uint64_t>(cameras)}) {}
+      samples_(kRateSamples, Sample{now_ns, 0, std::vector<std::uint64_t>(cameras)}) {
+  status_.cameras.resize(cameras);
+  for (occmap::camera_status_t& camera : status_.cameras) camera.last_error.reserve(kMaxErrorText);
+}
 
 void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t request_id,
                               std::int64_t now_ns) {
@@ -56,7 +59,13 @@ void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t
     for (std::size_t k = 0; k < cameras; ++k) sample.frames[k] = report.cameras[k].frames_in;
     oldest_ = (oldest_ + 1) % kRateSamples;
   }
-  buffer_.resize(static_cast<std::size_t>(status_.getEncodedSize()));
+  const auto encoded = static_cast<std::size_t>(status_.getEncodedSize());
+  // Room for the longest status these cameras can make (every error text at its longest), made
+  // the first time: a longer error later allocates nothing.
+  std::size_t error_bytes = 0;
+  for (const occmap::camera_status_t& s : status_.cameras) error_bytes += s.last_error.size();
+  buffer_.reserve(encoded - error_bytes + cameras * kMaxErrorText);
+  buffer_.resize(encoded);
   status_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
   if (!bus.publish(status_channel_, buffer_)) ++errors_;
 

@@ -37,6 +37,10 @@ struct ControlCounts {
   std::uint64_t accepted = 0;
 };
 
+// The longest error text a status carries (longer ones are cut): every string that holds one is
+// reserved to it once, so that a camera's new, longer error allocates nothing.
+inline constexpr std::size_t kMaxErrorText = 256;
+
 // One camera, as the status tells it (camera_status_t).
 struct CameraReport {
   std::string name;    // set once
