@@ -10,6 +10,7 @@
 #include <occmap/control_reply_t.hpp>
 #include <occmap/control_request_t.hpp>
 
+#include "base/clock.h"
 #include "config/config.h"
 #include "config/control_key_file.h"
 #include "config/exit_codes.h"
@@ -35,12 +36,6 @@ struct ControlOptions {
   CLI::App* set_threshold = nullptr;
   CLI::App* recapture = nullptr;
 };
-
-std::int64_t nowUtime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 int makeKey(const std::string& file) {
   writeNewControlKey(file);
@@ -109,7 +104,7 @@ int run(const ControlOptions& o) {
   }
   // Sent once: the daemon takes a request only once (its replay window), so sending the same bytes
   // again would be refused, and a new request could do the work twice.
-  request.utime = nowUtime();
+  request.utime = hostTimeMicroseconds();
   const std::string request_channel = controlRequestChannel(o.channel);
   if (!bus.publish(request_channel, encodeControlRequest(key, request))) {
     std::fprintf(stderr, "occmap control: failed: cannot publish on %s at %s\n",

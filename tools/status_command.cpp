@@ -10,6 +10,7 @@
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 
+#include "base/clock.h"
 #include "config/config.h"
 #include "config/exit_codes.h"
 #include "tools/commands.h"
@@ -29,12 +30,6 @@ struct StatusOptions {
   double timeout = 3;
   bool json = false;
 };
-
-std::int64_t nowUtime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 // A random, non-negative id (-1 marks the daemon's periodic status).
 std::int64_t randomRequestId() {
@@ -118,7 +113,7 @@ int run(const StatusOptions& o) {
     if (now >= (control_deadline ? *control_deadline : deadline)) break;
     if (!answer && now >= next_request) {  // again every 0.5 s: a datagram may be lost
       occmap::status_request_t request{};
-      request.utime = nowUtime();
+      request.utime = hostTimeMicroseconds();
       request.request_id = request_id;
       buffer.resize(static_cast<std::size_t>(request.getEncodedSize()));
       request.encode(buffer.data(), 0, static_cast<int>(buffer.size()));
