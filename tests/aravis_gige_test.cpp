@@ -156,7 +156,7 @@ class FakeGigE : public ::testing::Test {
   void TearDown() override {
     if (daemon_) {
       daemon_->signal(SIGTERM);
-      EXPECT_EQ(daemon_->waitExit(5s), 0) << daemon_->err();
+      EXPECT_EQ(daemon_->waitExit(testing::eventually(5s)), 0) << daemon_->err();
     }
   }
 
@@ -313,7 +313,7 @@ TEST_F(FakeGigE, AReloadKeepsUnchangedCamerasAndReopensAChangedOne) {
   folder_.write("occmapd.yaml", text);
   daemon_->signal(SIGHUP);
   const auto reloaded = [&] { return daemon_->err().find("reloaded") != std::string::npos; };
-  ASSERT_TRUE(listener.listen(30s, reloaded)) << daemon_->err();
+  ASSERT_TRUE(listener.listen(testing::eventually(30s), reloaded)) << daemon_->err();
   const std::string log = daemon_->err();
   for (const char* kept : {"gv01", "gv03", "gv04"}) {
     EXPECT_NE(log.find(std::string("camera ") + kept + ": its connection carries over"),
@@ -340,7 +340,7 @@ TEST_F(FakeGigE, AReloadKeepsUnchangedCamerasAndReopensAChangedOne) {
   folder_.write("occmapd.yaml", text);
   daemon_->signal(SIGHUP);
   const auto refused = [&] { return daemon_->err().find("reload refused") != std::string::npos; };
-  ASSERT_TRUE(listener.listen(30s, refused)) << daemon_->err();
+  ASSERT_TRUE(listener.listen(testing::eventually(30s), refused)) << daemon_->err();
   EXPECT_NE(daemon_->err().find("Colour"), std::string::npos) << daemon_->err();
   ASSERT_TRUE(listener.listen(10s,
                               [&] {

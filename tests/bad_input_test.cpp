@@ -544,7 +544,7 @@ TEST(BadFrames, TheDaemonDropsBadImagesFromAFilesSourceCountsThemAndStreamsOn) {
   systemd.collect(1500ms);
   EXPECT_GT(systemd.count("WATCHDOG=1"), pings) << "fusion goes on";
   daemon.signal(SIGTERM);
-  EXPECT_EQ(daemon.waitExit(5s), 0) << daemon.err();
+  EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
   const std::string log = daemon.err();
   EXPECT_NE(log.find("warning: camera down: image " + site.path("mixed/frame2.png") +
                      " is 50x50, but this camera's first image is 100x100, dropped"),
@@ -611,7 +611,7 @@ TEST(FloorBehindTheCamera, IsAWarningAndAnEmptyTableAndTheOtherCamerasMakeTheMap
   systemd.collect(1500ms);
   EXPECT_GT(systemd.count("WATCHDOG=1"), pings);
   daemon.signal(SIGTERM);
-  EXPECT_EQ(daemon.waitExit(5s), 0) << daemon.err();
+  EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
   EXPECT_NE(daemon.err().find("warning: camera 'up' sees no cell of the map"), std::string::npos)
       << daemon.err();
 
@@ -693,7 +693,7 @@ TEST(ReloadWithBadFiles, IsRefusedNamingTheFileAndTheRunningConfigStays) {
   EXPECT_GT(systemd.count("WATCHDOG=1"), pings) << "fusion goes on with the old config";
   EXPECT_TRUE(daemon.running());
   daemon.signal(SIGTERM);
-  EXPECT_EQ(daemon.waitExit(5s), 0) << daemon.err();
+  EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "network_namespace.h"
 #include "sim_room_config.h"
 #include "temporary_folder.h"
+#include "timing.h"
 
 namespace occmap {
 namespace {
@@ -65,7 +66,7 @@ TEST(OccmapControl, SetsAThresholdThatStatusShowsAndAReloadPutsBack) {
       "room.yaml", testing::simRoomConfig("udpm://239.255.76.67:7667?ttl=0") +
                        "control: {enabled: true, key_file: control.key, replay_window_s: 10}\n");
   ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "occmapd");
-  ASSERT_TRUE(waitForError(daemon, "ready:", 30s)) << daemon.err();
+  ASSERT_TRUE(waitForError(daemon, "ready:", testing::eventually(30s))) << daemon.err();
 
   auto result = runCommand({kOccmap, "control", "--key-file", key, "set-threshold", "c0", "35"});
   ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
@@ -95,7 +96,7 @@ TEST(OccmapControl, SetsAThresholdThatStatusShowsAndAReloadPutsBack) {
 
   // A reload goes back to the config's values.
   daemon.signal(SIGHUP);
-  ASSERT_TRUE(waitForError(daemon, "reloaded", 30s)) << daemon.err();
+  ASSERT_TRUE(waitForError(daemon, "reloaded", testing::eventually(30s))) << daemon.err();
   bool back = false;
   for (int attempt = 0; attempt < 20 && !back; ++attempt) {
     result = runCommand({kOccmap, "status", "--json"});
@@ -104,7 +105,7 @@ TEST(OccmapControl, SetsAThresholdThatStatusShowsAndAReloadPutsBack) {
   }
   EXPECT_TRUE(back) << "after SIGHUP the thresholds should be the config's: " << result.out;
   daemon.signal(SIGTERM);
-  EXPECT_EQ(daemon.waitExit(5s), 0) << daemon.err();
+  EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
 }
 
 }  // namespace
