@@ -7,8 +7,11 @@
 // pixel and the cell disagree. Such cells, "cut by an edge" in some camera, are exempt; so are
 // cells that an object's footprint covers only in part. Everything else must hold without
 // exception, and the exempt share is bounded so that the exemption cannot swallow a real fault.
+#include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include <gtest/gtest.h>
 
@@ -85,6 +88,36 @@ bool pixelClear(const Frames& frames, std::size_t k, int p) {
 
 double percent(std::size_t part, std::size_t whole) {
   return 100.0 * static_cast<double>(part) / static_cast<double>(whole);
+}
+
+// The renderer draws the empty room in passes (the room's faces, then each piece of furniture over
+// its projected bounds only); pixel for pixel that must be the nearest static surface along the
+// pixel's ray, as Scene::castStatic finds it by testing everything.
+TEST(SimulatedRoom, TheEmptyViewIsTheNearestStaticSurfaceOfEveryPixel) {
+  const sim::Scene& scene = *rig().scene;
+  for (const auto& renderer : rig().renderers) {
+    const Camera& camera = renderer->camera();
+    const Eigen::Vector3d centre = camera.centreMetres();
+    std::size_t furniture_pixels = 0;
+    for (int v = 0; v < camera.streamHeight(); ++v) {
+      for (int u = 0; u < camera.streamWidth(); ++u) {
+        int grey = 0, floor = 0;
+        if (const std::optional<Ray> ray = camera.streamToRay(Eigen::Vector2d(u, v))) {
+          const sim::Scene::Hit hit = scene.castStatic(centre, ray->direction);
+          if (std::isfinite(hit.t)) {
+            const double shade = scene.staticShade(centre + hit.t * ray->direction, hit.normal);
+            grey = static_cast<int>(std::clamp(std::lround(shade), 0L, 255L));
+            floor = hit.floor ? 255 : 0;
+            furniture_pixels += scene.castRoom(centre, ray->direction).t > hit.t;
+          }
+        }
+        ASSERT_EQ(renderer->background().at(u, v), grey) << "pixel " << u << "," << v;
+        ASSERT_EQ(renderer->floorMask().at(u, v), floor) << "pixel " << u << "," << v;
+      }
+    }
+    // Not a vacuous check: every camera of the room sees shelves.
+    EXPECT_GT(furniture_pixels, 1000u);
+  }
 }
 
 TEST(SimulatedRoom, NoiseNeverCrossesTheThresholdAndObjectsAlwaysDo) {

@@ -104,6 +104,15 @@ bool Scene::roomContains(const Eigen::Vector3d& p) const {
 }
 
 Scene::Hit Scene::castStatic(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
+  Hit hit = castRoom(o, d);
+  for (const Solid& solid : furniture()) {
+    const std::optional<Solid::Hit> h = solid.intersect(o, d, 1e-9, hit.t);
+    if (h) hit = Hit{h->t, h->normal, false};
+  }
+  return hit;
+}
+
+Scene::Hit Scene::castRoom(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
   // The room is a closed box: from inside, the ray leaves it through the nearest face it heads to.
   const Eigen::Vector2d size = roomSize();
   const Eigen::Vector3d high(size.x(), size.y(), wallHeight());
@@ -118,10 +127,6 @@ Scene::Hit Scene::castStatic(const Eigen::Vector3d& o, const Eigen::Vector3d& d)
       hit.normal[i] = d[i] > 0 ? -1.0 : 1.0;
       hit.floor = (i == 2 && d[i] < 0);
     }
-  }
-  for (const Solid& solid : furniture()) {
-    const std::optional<Solid::Hit> h = solid.intersect(o, d, 1e-9, hit.t);
-    if (h) hit = Hit{h->t, h->normal, false};
   }
   return hit;
 }

@@ -100,6 +100,8 @@ class Scene {
     bool floor;  // the visible floor, not furniture, walls or ceiling
   };
   Hit castStatic(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
+  // The room's faces alone (floor, walls, ceiling): castStatic before the furniture.
+  Hit castRoom(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
 };
 
 // Built-in scenes by name ("room": the paper's set-up). Empty for an unknown name.
