@@ -135,8 +135,7 @@ TEST_P(PipelineAtHeight, ShutdownUnderLoadLeavesNoThreadAndLosesNoFusedMap) {
   const std::size_t threads_before = threadCount();
   std::mt19937 random(7);
   // Twelve stops at random moments.
-  const int trials = 12;
-  for (int trial = 0; trial < trials; ++trial) {
+  for (int trial = 0; trial < 12; ++trial) {
     MemoryNetwork network;
     std::atomic<std::uint64_t> received{0};
     std::size_t threads_with_listener = 0;
