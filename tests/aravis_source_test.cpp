@@ -36,6 +36,7 @@
 #include "network_namespace.h"
 #include "sim_reference.h"
 #include "temporary_folder.h"
+#include "timing.h"
 #include "transport/map_codec.h"
 #include "transport/memory_bus.h"
 #include "tsai_xml.h"
@@ -46,11 +47,7 @@ namespace {
 using namespace std::chrono_literals;
 using testing::TemporaryFolder;
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr bool kSanitized = true;  // how long a read() takes is not what is under test there
-#else
-constexpr bool kSanitized = false;
-#endif
+using testing::kSanitized;  // how long a read() takes is not what is under test there
 
 // Draws the frames of the in-process Fake cameras that Aravis sources open while it exists. Aravis
 // makes a new fake device, with a fake camera of its own, at every open of Fake_1, deep inside the
@@ -124,7 +121,9 @@ class FakeCameraPainter {
 
 // The next frame within a few seconds (a live source may say kTimeout meanwhile).
 FrameSource::Status nextFrame(FrameSource& source, Frame& frame) {
-  const auto give_up = std::chrono::steady_clock::now() + 5s;
+  // A frame must come eventually: within 5 s, six times that under a sanitizer (tests/timing.h),
+  // where a camera just reopened and a TSan-slowed receiver beside other tests missed 5 s.
+  const auto give_up = std::chrono::steady_clock::now() + testing::eventually(5s);
   for (;;) {
     const FrameSource::Status status = source.read(frame);
     if (status != FrameSource::Status::kTimeout || std::chrono::steady_clock::now() > give_up)
