@@ -430,7 +430,10 @@ TEST_F(FakeCamera, FrameNumbersCountOnAcrossTheCamerasWrapOfItsIds) {
     previous_id = frame.device_frame_id;
   }
   EXPECT_TRUE(wrapped) << "the camera's ids never wrapped: the test tests nothing";
-  EXPECT_EQ(source->transportCounters().underruns, 0);
+  // Underruns say whether this reader kept up with 200 fps: a rate, so only in the plain build.
+  // Under TSan the reader fell behind once on a busy CI host (underruns 1) while every frame it
+  // took still had the next number, which is what this test is about.
+  if (!kSanitized) EXPECT_EQ(source->transportCounters().underruns, 0);
 }
 
 // The caller may reopen a camera in any state: here one that streams. The frame numbers go on.
