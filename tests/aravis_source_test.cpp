@@ -433,7 +433,9 @@ TEST_F(FakeCamera, FrameNumbersCountOnAcrossTheCamerasWrapOfItsIds) {
   // Underruns say whether this reader kept up with 200 fps: a rate, so only in the plain build.
   // Under TSan the reader fell behind once on a busy CI host (underruns 1) while every frame it
   // took still had the next number, which is what this test is about.
-  if (!kSanitized) EXPECT_EQ(source->transportCounters().underruns, 0);
+  if (!kSanitized) {
+    EXPECT_EQ(source->transportCounters().underruns, 0);
+  }
 }
 
 // The caller may reopen a camera in any state: here one that streams. The frame numbers go on.
