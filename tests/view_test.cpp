@@ -13,6 +13,7 @@
 #include "map_scenes.h"
 #include "network_namespace.h"
 #include "temporary_folder.h"
+#include "timing.h"
 
 namespace occmap {
 namespace {
@@ -70,7 +71,7 @@ TEST_F(LiveLcm, ViewStoppedWithCtrlCPrintsItsSummary) {
   auto view = startView({"--timeout", "20"});
   publish({"--count", "10", "--rate", "30", "--encoding", "zstd"});
   view->signal(SIGINT);
-  const auto code = view->waitExit(5s);
+  const auto code = view->waitExit(testing::eventually(5s));
   ASSERT_TRUE(code) << "occmap view did not stop on SIGINT";
   EXPECT_EQ(*code, 0) << view->out() << view->err();
   // The publisher has sent all 10 when it returns, but the viewer may not have read the last
