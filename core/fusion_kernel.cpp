@@ -10,8 +10,6 @@
 namespace occmap {
 namespace {
 
-std::size_t tilesAcross(int width) { return (static_cast<std::size_t>(width) + 7) / 8; }
-std::size_t tilesDown(int height) { return (static_cast<std::size_t>(height) + 7) / 8; }
 
 // writeCellStates computes the states as numbers: 2 - seen - free.
 static_assert(static_cast<int>(CellState::kFree) == 0 &&

@@ -25,6 +25,9 @@ enum class KernelPath : std::uint8_t { kSimd, kScalar };
 // fall into one to a few tiles, and one word answers for all of a cell's pixels in a tile at once.
 // The buffer is changedMaskBytes(width, height) bytes.
 std::size_t changedMaskBytes(int width, int height);
+// The mask's tiles in a row of them, and its rows of tiles.
+inline std::size_t tilesAcross(int width) { return (static_cast<std::size_t>(width) + 7) / 8; }
+inline std::size_t tilesDown(int height) { return (static_cast<std::size_t>(height) + 7) / 8; }
 
 // The paper's difference and threshold (eqs. 14-15) for one camera frame: a pixel is changed (no
 // clear ray) when |live - background| >= threshold. This is the capture threads' share of the

@@ -1,0 +1,99 @@
+#pragma once
+// A camera's background that follows the light (issue 13, docs/lighting.md). The paper compares
+// every frame with a background captured once; a building's light does not keep still. Two of the
+// three parts of the model live here:
+// - The light's gain, estimated every frame from the pixels that look like the background: a
+//   multiplicative change (daylight, a dimmer, the camera's gain and exposure; with the camera's
+//   gamma still multiplicative) leaves live = gain x background wherever nothing stands. Each
+//   frame is then compared in the background's own light: live / gain against the background with
+//   the same threshold, so an object's contrast counts as it did when the background was taken
+//   (the threshold is scaled with the light, and a dark object in dim light is still found).
+// - Slow drift, followed conservatively: a background pixel moves toward the live one (in the
+//   background's light) only while its whole 8 x 8 tile was judged unchanged, so never where
+//   something stands or at its edges. A box put down stays changed, and so occupied, for as long as
+//   it stays.
+// When no gain explains what the camera sees (bumped, covered, lights out, or more than half of the
+// view covered) the model says so (explained() false) and leaves its background as it is.
+// No I/O, no threads; after construction nothing is allocated.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/image.h"
+
+namespace occmap {
+
+struct LightingSettings {
+  bool adapt = true;  // false: today's fixed background, exactly
+  // The time constant of the drift, in frames: an unchanged background pixel covers about 63 % of
+  // a lasting difference in this many frames (256: about 8.5 s at 30 fps).
+  int drift_frames = 256;
+  // The share of the usable sampled pixels that must agree with one gain (within the agreement
+  // band) for the change to count as light. Below it the camera is degraded. The trade: objects
+  // may cover up to 30 % of a camera's view (people in the simulated room leave 89 to 95 % of the
+  // samples agreeing), while a camera knocked aside by 1 degree leaves about half agreeing, since
+  // the floor and walls look alike wherever they are.
+  double min_agreement = 0.7;
+  // The agreement band in grey levels at gain 1 (wider in a brighter light), about a pixel's noise
+  // plus the model's error; a sample agrees when |live - gain x background| is under it.
+  int agreement_grey_levels = 8;
+};
+
+class LightingModel {
+ public:
+  // `background` is copied: it is the empty scene in the light of the moment it was taken.
+  LightingModel(ImageView background, const LightingSettings& settings);
+
+  // Starts again from a new background (a recapture): gain 1, nothing learnt kept.
+  void reset(ImageView background);
+
+  // Before the difference, once per frame: estimates the light's gain from `live` and returns the
+  // frame in the background's light (live / gain, rounded, at most 255). Compare it with
+  // background() under the usual threshold. The view is valid until the next call.
+  ImageView correct(ImageView live);
+  // The background in its own light for the frame correct() last saw. Where that frame's light
+  // saturates the sensor (gain > 1) it is capped at what a saturated pixel reads, since a pixel at
+  // 255 may hide any brighter background.
+  ImageView background() const;
+
+  // After the difference, once per frame: `changed_tiles` is the frame's changed-pixel mask
+  // (core/fusion_kernel.h's tile layout). Pixels of wholly unchanged tiles move toward the frame;
+  // one band of tile rows a frame, in turn. Nothing moves in a frame the gain did not explain.
+  void follow(ImageView live, const std::uint8_t* changed_tiles);
+
+  double gain() const { return gain_; }
+  // The share of the usable sampled pixels that agreed with the gain, in the last frame.
+  double agreement() const { return agreement_; }
+  // Whether the last frame's change was light (agreement at least min_agreement).
+  bool explained() const { return explained_; }
+
+  // Sampling: every kSampleStep-th pixel of every kSampleStep-th row.
+  static constexpr int kSampleStep = 4;
+  // follow() updates one of kBands bands of tile rows per frame.
+  static constexpr int kBands = 4;
+
+ private:
+  void estimateGain(ImageView live);
+  void buildTables();
+
+  LightingSettings settings_;
+  int width_ = 0;
+  int height_ = 0;
+  std::vector<std::uint16_t> reference_q8_;  // background x 256: the drift's fine steps
+  Image reference_;                          // reference_q8_ rounded to grey levels
+  Image corrected_;                          // the last frame in the background's light
+  Image capped_;                             // reference_ capped where the light saturates
+  bool capped_in_use_ = false;
+  std::vector<std::uint32_t> histogram_;              // log-ratio bins of the gain estimate
+  std::vector<std::uint32_t> sample_at_;              // pixel offsets of usable samples, this frame
+  std::array<std::uint8_t, 256> to_reference_{};      // live grey -> background's light
+  std::array<std::uint16_t, 256> to_reference_q8_{};  // the same x 256, for the drift
+  double gain_ = 1.0;
+  double agreement_ = 1.0;
+  bool explained_ = true;
+  std::uint64_t frames_ = 0;
+};
+
+}  // namespace occmap
