@@ -25,6 +25,7 @@
 #include "bench/bench_rig.h"
 #include "bench/json_line.h"
 #include "bench/previous_kernel.h"
+#include "core/changed_pixels.h"
 #include "core/fusion_kernel.h"
 #include "core/reference_fusion.h"
 
@@ -263,6 +264,35 @@ void differenceCase(benchmark::State& state, const std::string& config,
   finish(state);
 }
 
+// The capture threads' share with the light's model on (core/changed_pixels.h, as occmapd runs
+// it): the gain found, the frame put in the background's light, the difference, the drift.
+void differenceLitCase(benchmark::State& state, const std::string& config,
+                       const std::string& mode_name, bool cold) {
+  ConfigData& data = configData(config);
+  const FusionKernel& kernel = *mode(data, mode_name).kernel;
+  const std::size_t cameras = data.backgrounds.size();
+  std::vector<std::vector<std::uint8_t>> masks(cameras, std::vector<std::uint8_t>(data.mask_bytes));
+  std::vector<Image> backgrounds;
+  std::vector<ChangedPixels> changed;
+  for (const ImageView& view : data.backgrounds) {
+    Image copy(view.width, view.height);
+    for (int v = 0; v < view.height; ++v) std::copy_n(view.row(v), view.width, copy.row(v));
+    backgrounds.push_back(std::move(copy));
+    changed.emplace_back(LightingSettings{});
+  }
+  std::size_t i = 0;
+  for (auto _ : state) {
+    for (std::size_t k = 0; k < cameras; ++k) {
+      changed[k].mark(kernel, k, data.rotation_views[i][k], backgrounds[k], kThreshold,
+                      masks[k].data());
+    }
+    benchmark::DoNotOptimize(masks.back().data());
+    benchmark::ClobberMemory();
+    if (cold && ++i == data.rotation.size()) i = 0;
+  }
+  finish(state);
+}
+
 // Each frame set of the rotation as the fusion thread gets it: one changed-pixel mask per camera.
 std::vector<std::vector<const std::uint8_t*>> maskSets(const ConfigData& data) {
   std::vector<std::vector<const std::uint8_t*>> sets(data.mask_rotation.size());
@@ -418,6 +448,8 @@ void registerAll() {
                                      config, mode_name, cold);
         benchmark::RegisterBenchmark((prefix + "/difference/" + temperature).c_str(),
                                      differenceCase, config, mode_name, cold);
+        benchmark::RegisterBenchmark((prefix + "/difference_lit/" + temperature).c_str(),
+                                     differenceLitCase, config, mode_name, cold);
         benchmark::RegisterBenchmark((config + "/" + mode_name + "/kernel/" + temperature).c_str(),
                                      kernelCase, config, mode_name, cold);
         benchmark::RegisterBenchmark((config + "/" + mode_name + "/fuse/" + temperature).c_str(),

@@ -1,5 +1,7 @@
 #include "capture/sim_source.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "base/clock.h"
@@ -20,6 +22,18 @@ FrameSource::Status SimSource::read(Frame& frame) {
   if (current_.width() != width() || current_.height() != height())
     current_ = Image(width(), height());
   renderer_.render(objects_, next_, current_, depth_);
+  // The light as the sensor records it: every grey level scaled, clipped at 255.
+  if (const double gain = scene_->lightGain(last_time_); gain != 1.0) {
+    std::array<std::uint8_t, 256> lit;
+    for (int v = 0; v < 256; ++v) {
+      lit[static_cast<std::size_t>(v)] =
+          static_cast<std::uint8_t>(std::min(255.0, std::round(v * gain)));
+    }
+    std::uint8_t* pixel = current_.data();
+    for (std::size_t i = 0, n = static_cast<std::size_t>(width()) * height(); i < n; ++i) {
+      pixel[i] = lit[pixel[i]];
+    }
+  }
   frame.image = current_.view();
   frame.sequence = next_++;
   frame.capture_time_us = hostTimeMicroseconds();

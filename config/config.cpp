@@ -22,19 +22,35 @@ int CameraConfig::effectiveThreshold(const FusionSettings& fusion) const {
   return threshold.value_or(fusion.threshold);
 }
 
+LightingSettings LightingOverride::over(LightingSettings settings) const {
+  if (adapt) settings.adapt = *adapt;
+  if (drift_frames) settings.drift_frames = *drift_frames;
+  if (min_agreement) settings.min_agreement = *min_agreement;
+  if (agreement_grey_levels) settings.agreement_grey_levels = *agreement_grey_levels;
+  return settings;
+}
+
+LightingSettings CameraConfig::effectiveLighting(const FusionSettings& fusion) const {
+  return lighting.over(fusion.lighting);
+}
+
 namespace {
 
 using Keys = std::span<const std::string_view>;
 
 constexpr std::string_view kTopKeys[] = {"map", "cameras", "fusion", "transport", "control"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
-constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms"};
+constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
+                                            "lighting"};
+constexpr std::string_view kLightingKeys[] = {"adapt", "drift_frames", "min_agreement",
+                                              "agreement_grey_levels"};
 constexpr std::string_view kTransportKeys[] = {"lcm_url", "map_channel", "status_channel",
                                                "encoding"};
 constexpr std::string_view kControlKeys[] = {"enabled", "key_file", "replay_window_s"};
 constexpr std::string_view kCameraKeys[] = {
-    "name",       "source",    "calibration", "calibration_units", "image_region", "background",
-    "floor_mask", "threshold", "fps",         "settings"};
+    "name",         "source",     "calibration", "calibration_units",
+    "image_region", "background", "floor_mask",  "threshold",
+    "lighting",     "fps",        "settings"};
 
 int lineOf(const YAML::Node& node) {
   const YAML::Mark mark = node.Mark();
@@ -395,9 +411,27 @@ class ConfigReader {
         fusion.column_height_m = real(entry.value, 0.0, false, 5.0, " m");
       } else if (entry.key == "max_wait_ms") {
         fusion.max_wait_ms = smallInteger(entry.value, 0, 10000);
+      } else if (entry.key == "lighting") {
+        fusion.lighting = readLighting(entry.value).over(fusion.lighting);
       }
     }
     return fusion;
+  }
+
+  LightingOverride readLighting(const Value& value) const {
+    LightingOverride lighting;
+    for (const Entry& entry : entries(value, kLightingKeys)) {
+      if (entry.key == "adapt") {
+        lighting.adapt = boolean(entry.value);
+      } else if (entry.key == "drift_frames") {
+        lighting.drift_frames = smallInteger(entry.value, 1, 1000000);
+      } else if (entry.key == "min_agreement") {
+        lighting.min_agreement = real(entry.value, 0.0, false, 1.0, "");
+      } else if (entry.key == "agreement_grey_levels") {
+        lighting.agreement_grey_levels = smallInteger(entry.value, 1, 64);
+      }
+    }
+    return lighting;
   }
 
   TransportSettings readTransport(const Value& value) const {
@@ -535,6 +569,8 @@ class ConfigReader {
         camera.floor_mask = path(value);
       } else if (entry.key == "threshold") {
         camera.threshold = smallInteger(value, 1, 255);
+      } else if (entry.key == "lighting") {
+        camera.lighting = readLighting(value);
       } else if (entry.key == "fps") {
         camera.fps = real(value, 0.0, true, 1000.0, "");
       } else if (entry.key == "settings") {

@@ -10,6 +10,7 @@
 
 #include "core/camera.h"
 #include "core/camera_model.h"
+#include "core/lighting_model.h"
 #include "core/map_geometry.h"
 
 namespace occmap {
@@ -24,6 +25,16 @@ struct FusionSettings {
   int threshold = 20;            // grey levels a live pixel must differ from the background by
   double column_height_m = 0.3;  // column carving height; 0 carves the floor point only
   int max_wait_ms = 50;          // how long fusion waits for the other cameras after a first frame
+  LightingSettings lighting;     // the background that follows the light (docs/lighting.md)
+};
+
+// A camera's `lighting:` keys: each one given replaces the fusion section's.
+struct LightingOverride {
+  std::optional<bool> adapt;
+  std::optional<int> drift_frames;
+  std::optional<double> min_agreement;
+  std::optional<int> agreement_grey_levels;
+  LightingSettings over(LightingSettings settings) const;
 };
 
 struct TransportSettings {
@@ -52,6 +63,7 @@ struct CameraConfig {
   std::optional<std::filesystem::path> background;   // absent only for sim:// sources
   std::optional<std::filesystem::path> floor_mask;
   std::optional<int> threshold;  // absent: FusionSettings::threshold
+  LightingOverride lighting;     // over FusionSettings::lighting
   std::optional<double> fps;
   // Backend features (GenICam names for Aravis, V4L2 controls), values as written, in file order.
   std::vector<std::pair<std::string, std::string>> settings;
@@ -61,6 +73,7 @@ struct CameraConfig {
   // The line of `key` if the entry gives it, else the entry's line: where to point a later error.
   int lineOf(std::string_view key) const;
   int effectiveThreshold(const FusionSettings& fusion) const;
+  LightingSettings effectiveLighting(const FusionSettings& fusion) const;
 };
 
 struct Config {

@@ -101,6 +101,7 @@ Rig Rig::open(const Config& full_config, const RigOptions& options) {
     RigCamera camera;
     camera.name = entry.name;
     camera.threshold = entry.effectiveThreshold(config.fusion);
+    camera.lighting = entry.effectiveLighting(config.fusion);
 
     std::optional<LoadedCalibration> calibration;
     if (entry.calibration)

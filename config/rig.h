@@ -37,6 +37,7 @@ struct RigCamera {
   Image background;  // the stream's size
   Image floor_mask;  // the stream's size, or empty: every pixel is floor
   int threshold = 20;
+  LightingSettings lighting;            // the background that follows the light
   std::unique_ptr<FrameSource> source;  // empty for a live camera not opened yet
   bool live = false;                    // a camera (aravis://, v4l2://), not files or sim
   SimSource* sim = nullptr;  // the same source when it is the simulator, for its ground truth

@@ -60,9 +60,10 @@ void LightingModel::reset(ImageView background) {
     }
   }
   histogram_.assign(kBins, 0);
+  quiet_row_.assign(tilesAcross(width_) * 8, 0);
   const std::size_t samples = static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep) *
                               static_cast<std::size_t>((height_ + kSampleStep - 1) / kSampleStep);
-  sample_at_.assign(samples, 0);
+  samples_.assign(samples, 0);
   gain_ = 1.0;
   agreement_ = 1.0;
   explained_ = true;
@@ -76,10 +77,11 @@ void LightingModel::estimateGain(ImageView live) {
   std::fill(histogram_.begin(), histogram_.end(), 0u);
   std::size_t usable = 0;
   constexpr double kBinsPerLog = kBins / (2 * kLogRange);
+  const int width = width_;  // a local: see correct()
   for (int v = 0; v < height_; v += kSampleStep) {
     const std::uint8_t* background = reference_.row(v);
     const std::uint8_t* frame = live.row(v);
-    for (int u = 0; u < width_; u += kSampleStep) {
+    for (int u = 0; u < width; u += kSampleStep) {
       const int b = background[u];
       const int l = frame[u];
       if (b < kDarkest || b > kBrightest || l >= kSaturated || l < 2) continue;
@@ -87,7 +89,7 @@ void LightingModel::estimateGain(ImageView live) {
                            static_cast<double>(ln[static_cast<std::size_t>(b)]);
       const int bin = std::clamp(static_cast<int>((ratio + kLogRange) * kBinsPerLog), 0, kBins - 1);
       ++histogram_[static_cast<std::size_t>(bin)];
-      sample_at_[usable++] = static_cast<std::uint32_t>(v * width_ + u);
+      samples_[usable++] = static_cast<std::uint16_t>(b << 8 | l);
     }
   }
   if (usable < kFewestSamples) {
@@ -113,11 +115,8 @@ void LightingModel::estimateGain(ImageView live) {
   // grow with it.
   const double band = settings_.agreement_grey_levels * std::max(1.0, median);
   for (std::size_t s = 0; s < usable; ++s) {
-    const std::uint32_t at = sample_at_[s];
-    const int v = static_cast<int>(at / static_cast<std::uint32_t>(width_));
-    const int u = static_cast<int>(at % static_cast<std::uint32_t>(width_));
-    const double b = reference_.data()[at];
-    const double l = live.at(u, v);
+    const double b = samples_[s] >> 8;
+    const double l = samples_[s] & 0xFF;
     if (std::abs(l - median * b) < band) {
       ++agreeing;
       sum_lb += l * b;
@@ -130,13 +129,8 @@ void LightingModel::estimateGain(ImageView live) {
 }
 
 void LightingModel::buildTables() {
-  for (int l = 0; l < 256; ++l) {
-    const double in_reference = l / gain_;
-    to_reference_[static_cast<std::size_t>(l)] =
-        static_cast<std::uint8_t>(std::min(255.0, std::round(in_reference)));
-    to_reference_q8_[static_cast<std::size_t>(l)] =
-        static_cast<std::uint16_t>(std::min(65535.0, std::round(in_reference * 256.0)));
-  }
+  // 1 / gain in 16.16 (gain >= 1/4, so at most 2^18: l x inverse stays within 31 bits).
+  inverse_gain_q16_ = static_cast<std::int32_t>(std::lround(65536.0 / gain_));
 }
 
 ImageView LightingModel::correct(ImageView live) {
@@ -145,14 +139,22 @@ ImageView LightingModel::correct(ImageView live) {
   }
   estimateGain(live);
   buildTables();
+  // live / gain, rounded, at most 255: in 16.16 fixed point, which the compiler puts in vectors
+  // (a byte table lookup per pixel it cannot).
+  // Locals, not members, in the loops: a byte store may alias any member, which the compiler
+  // would then reload for every pixel (and not vectorize).
+  const std::int32_t inverse = inverse_gain_q16_;
+  const int width = width_;
   for (int v = 0; v < height_; ++v) {
     const std::uint8_t* in = live.row(v);
     std::uint8_t* out = corrected_.row(v);
-    for (int u = 0; u < width_; ++u) out[u] = to_reference_[in[u]];
+    for (int u = 0; u < width; ++u) {
+      out[u] = static_cast<std::uint8_t>(std::min(255, (in[u] * inverse + 32768) >> 16));
+    }
   }
-  // A pixel at 255 reads to_reference_[255] in the background's light: a background above that
-  // would have been clipped too, so it is compared as that.
-  const std::uint8_t cap = to_reference_[255];
+  // A pixel at 255 reads `cap` in the background's light: a background above that would have been
+  // clipped too, so it is compared as that.
+  const auto cap = static_cast<std::uint8_t>(std::min(255, (255 * inverse + 32768) >> 16));
   capped_in_use_ = cap < 255;
   if (capped_in_use_) {
     const std::size_t pixels = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
@@ -170,40 +172,47 @@ ImageView LightingModel::background() const {
 
 void LightingModel::follow(ImageView live, const std::uint8_t* changed_tiles) {
   if (!explained_ || frames_ == 0) return;
-  // Each pixel is visited every kBands frames, so each visit covers kBands frames of drift.
-  const std::int64_t alpha_q16 = std::max<std::int64_t>(
-      1,
-      std::llround(65536.0 * std::min(1.0, static_cast<double>(kBands) / settings_.drift_frames)));
+  // Each pixel is visited every kBands frames, so each visit covers kBands frames of drift. In
+  // 16.16 fixed point; drift_frames >= kBands keeps the step's product within 32 bits.
+  const std::int32_t alpha_q16 = static_cast<std::int32_t>(std::clamp<long>(
+      std::lround(65536.0 * kBands / std::max(settings_.drift_frames, kBands)), 1, 65536));
+  // live / gain x 256, in 16.16: the live pixel in the background's light, in its fine steps.
+  const std::int32_t inverse = inverse_gain_q16_;
   const std::size_t across = tilesAcross(width_);
   const std::size_t down = tilesDown(height_);
   const std::size_t band = static_cast<std::size_t>((frames_ - 1) % kBands);
   const std::size_t first = band * down / kBands;
   const std::size_t last = (band + 1) * down / kBands;
+  std::uint8_t* quiet = quiet_row_.data();
   for (std::size_t tile_row = first; tile_row < last; ++tile_row) {
-    const int v0 = static_cast<int>(tile_row * 8);
-    const int v1 = std::min(height_, v0 + 8);
+    // 1 for every pixel of a wholly unchanged tile: only there is anything learnt.
+    bool any = false;
     for (std::size_t tile = 0; tile < across; ++tile) {
       std::uint64_t word;
       std::memcpy(&word, changed_tiles + (tile_row * across + tile) * 8, sizeof word);
-      if (word != 0) continue;  // something changed in this tile: leave all of it
-      const int u0 = static_cast<int>(tile * 8);
-      const int u1 = std::min(width_, u0 + 8);
-      for (int v = v0; v < v1; ++v) {
-        const std::uint8_t* frame = live.row(v);
-        std::uint16_t* fine = reference_q8_.data() + static_cast<std::ptrdiff_t>(v) * width_;
-        std::uint8_t* grey = reference_.row(v);
-        for (int u = u0; u < u1; ++u) {
-          const int l = frame[u];
-          if (l >= kSaturated) continue;  // only "at least this bright": nothing to learn
-          const std::int64_t difference =
-              std::int64_t{to_reference_q8_[static_cast<std::size_t>(l)]} - fine[u];
-          if (difference == 0) continue;
-          std::int64_t step = difference * alpha_q16 / 65536;
-          if (step == 0) step = difference > 0 ? 1 : -1;
-          const auto moved = static_cast<std::uint16_t>(fine[u] + step);
-          fine[u] = moved;
-          grey[u] = static_cast<std::uint8_t>(std::min(255, (moved + 128) >> 8));
-        }
+      std::memset(quiet + tile * 8, word == 0 ? 1 : 0, 8);
+      any = any || word == 0;
+    }
+    if (!any) continue;
+    const int width = width_;  // a local: see correct()
+    const int v0 = static_cast<int>(tile_row * 8);
+    const int v1 = std::min(height_, v0 + 8);
+    for (int v = v0; v < v1; ++v) {
+      const std::uint8_t* frame = live.row(v);
+      std::uint16_t* fine = reference_q8_.data() + static_cast<std::ptrdiff_t>(v) * width;
+      std::uint8_t* grey = reference_.row(v);
+      for (int u = 0; u < width; ++u) {
+        const std::int32_t l = frame[u];
+        const std::int32_t target = std::min(65535, (l * inverse + 128) >> 8);
+        const std::int32_t now = fine[u];
+        const std::int32_t difference = target - now;
+        std::int32_t step = (difference * alpha_q16) >> 16;  // toward -inf: -1 at least below
+        step += (step == 0 && difference > 0) ? 1 : 0;       // and +1 at least above
+        // A clipped pixel says only "at least this bright": nothing to learn from it.
+        const bool learn = quiet[u] != 0 && l < kSaturated;
+        const std::int32_t moved = learn ? now + step : now;
+        fine[u] = static_cast<std::uint16_t>(moved);
+        grey[u] = static_cast<std::uint8_t>(std::min(255, (moved + 128) >> 8));
       }
     }
   }

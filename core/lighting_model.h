@@ -86,10 +86,10 @@ class LightingModel {
   Image corrected_;                          // the last frame in the background's light
   Image capped_;                             // reference_ capped where the light saturates
   bool capped_in_use_ = false;
-  std::vector<std::uint32_t> histogram_;              // log-ratio bins of the gain estimate
-  std::vector<std::uint32_t> sample_at_;              // pixel offsets of usable samples, this frame
-  std::array<std::uint8_t, 256> to_reference_{};      // live grey -> background's light
-  std::array<std::uint16_t, 256> to_reference_q8_{};  // the same x 256, for the drift
+  std::vector<std::uint32_t> histogram_;   // log-ratio bins of the gain estimate
+  std::vector<std::uint16_t> samples_;     // this frame's usable samples: background << 8 | live
+  std::vector<std::uint8_t> quiet_row_;    // follow(): 1 per pixel of a wholly unchanged tile
+  std::int32_t inverse_gain_q16_ = 65536;  // 1 / gain in 16.16
   double gain_ = 1.0;
   double agreement_ = 1.0;
   bool explained_ = true;

@@ -46,6 +46,7 @@ Pipeline::Camera::Camera(const RigCamera& camera, double fps, const CameraHealth
                          int width, int height)
     : health(policy, fps),
       control(camera.name, camera.background, camera.threshold, fps),
+      changed_pixels(camera.lighting),
       frames(CapturedFrame{std::vector<std::uint8_t>(changedMaskBytes(width, height))},
              CapturedFrame{std::vector<std::uint8_t>(changedMaskBytes(width, height))},
              CapturedFrame{std::vector<std::uint8_t>(changedMaskBytes(width, height))}) {}
@@ -256,9 +257,11 @@ void Pipeline::captureLoop(std::size_t k) {
     camera.control.recorder.record(frame.image);  // one atomic load unless a recapture is under way
     CapturedFrame& slot = camera.frames.writeBuffer();
     // Both may change at any frame (control requests): read once per frame, without a lock.
-    const ImageView background = camera.control.background.current().view();
+    const Image& background = camera.control.background.current();
     const int threshold = camera.control.threshold.load(std::memory_order_relaxed);
-    kernel_.markChangedPixels(k, frame.image, background, threshold, slot.changed.data());
+    slot.explained = camera.changed_pixels.mark(kernel_, k, frame.image, background, threshold,
+                                                slot.changed.data());
+    if (slot.explained == camera.unexplained) noteLighting(k, slot.explained);
     slot.sequence = frame.sequence;
     slot.capture_time_us = frame.capture_time_us;
     slot.arrival_ns = now;
@@ -267,6 +270,32 @@ void Pipeline::captureLoop(std::size_t k) {
     camera.last_capture_us.store(frame.capture_time_us, std::memory_order_relaxed);
     camera.health.frameArrived(now);
     fusion_wakeup_.signal();
+  }
+}
+
+// Capture thread: a camera's view went from what a change of light explains to what it does not,
+// or back. Said once each way; the frames in between do not count (fuse()).
+void Pipeline::noteLighting(std::size_t k, bool explained) {
+  Camera& camera = *cameras_[k];
+  camera.unexplained = !explained;
+  std::uint64_t suppressed = 0;
+  if (!camera.lighting_notes.allow(suppressed)) return;  // a view on the edge flips often
+  const LightingModel* model = camera.changed_pixels.lighting();
+  const double agreement = model != nullptr ? model->agreement() : 0.0;
+  if (explained) {
+    logLine(LogLevel::kNotice,
+            "camera %s: its view is explained by the light again (gain %.2f; %llu changes "
+            "not shown)",
+            prepared_.rig.cameras()[k].name.c_str(), model != nullptr ? model->gain() : 1.0,
+            static_cast<unsigned long long>(suppressed));
+  } else {
+    logLine(LogLevel::kWarning,
+            "camera %s: no change of light explains its view (%.0f %% of its pixels agree with "
+            "one gain): bumped, covered, lights out, or crowded; its cells count as unseen until "
+            "it is (occmap control recapture-background takes a new background; %llu changes "
+            "not shown)",
+            prepared_.rig.cameras()[k].name.c_str(), 100 * agreement,
+            static_cast<unsigned long long>(suppressed));
   }
 }
 
@@ -334,7 +363,8 @@ void Pipeline::fuse(std::int64_t now) {
     const CapturedFrame& frame = camera.frames.readBuffer();
     // The newest frame of each live camera; one that is late for this set still counts with its
     // previous frame as long as that is recent (a down camera's cells turn unseen instead).
-    const bool used = frame_set_.uses(k, states_[k], now, camera.health.downAfterNs());
+    const bool used =
+        frame_set_.uses(k, states_[k], now, camera.health.downAfterNs()) && frame.explained;
     changed_[k] = used ? frame.changed.data() : nullptr;
     out.cameras[k] =
         CameraContribution{states_[k], used, used ? static_cast<std::int64_t>(frame.sequence) : -1,

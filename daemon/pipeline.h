@@ -29,6 +29,7 @@
 #include "base/time_histogram.h"
 #include "config/prepared_rig.h"
 #include "core/camera_health.h"
+#include "core/changed_pixels.h"
 #include "core/frame_set.h"
 #include "core/fusion_kernel.h"
 #include "core/map_frame.h"
@@ -113,6 +114,9 @@ class Pipeline {
   // What a capture thread hands fusion: the changed-pixel mask of a frame, not the frame.
   struct CapturedFrame {
     std::vector<std::uint8_t> changed;  // changed-pixel bits in 8 x 8 tiles (fusion_kernel.h)
+    // False when the light's model did not explain the frame (core/lighting_model.h): fusion
+    // leaves the camera out, so that what only it sees is unseen rather than occupied.
+    bool explained = true;
     std::uint64_t sequence = 0;
     std::int64_t capture_time_us = 0;
     std::int64_t arrival_ns = 0;  // CLOCK_MONOTONIC, when the capture thread had it
@@ -122,7 +126,9 @@ class Pipeline {
     Camera(const RigCamera& camera, double fps, const CameraHealthPolicy& policy, int width,
            int height);
     CameraHealth health;
-    CameraControl control;  // threshold and background as control requests change them
+    CameraControl control;         // threshold and background as control requests change them
+    ChangedPixels changed_pixels;  // capture thread only: difference and the light's model
+    bool unexplained = false;      // capture thread only: the last frame's light was not explained
     // The newest frame: when fusion is behind, the oldest gives way (fusion only takes the newest).
     TripleBuffer<CapturedFrame> frames;
     alignas(64) std::atomic<std::uint64_t> frames_in{0};
@@ -134,10 +140,12 @@ class Pipeline {
     SharedText<kMaxErrorText> last_error;
     RateLimit error_warnings{std::chrono::seconds(10)};  // bad frames
     RateLimit down_warnings{std::chrono::seconds(10)};   // a flapping camera logs now and then
+    RateLimit lighting_notes{std::chrono::seconds(10)};  // explained by the light, or not
   };
 
   void captureLoop(std::size_t camera);
   void loseCamera(std::size_t camera, const char* why);
+  void noteLighting(std::size_t camera, bool explained);
   void fusionLoop();
   void noteState(std::size_t camera, CameraState state, std::int64_t now);
   void fuse(std::int64_t now);

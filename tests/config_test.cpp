@@ -165,6 +165,38 @@ TEST(Config, DefaultsAreTheDesignsDefaults) {
   EXPECT_EQ(config.transport.encoding, "zstd");
   ASSERT_EQ(config.cameras.size(), 1u);
   EXPECT_EQ(config.cameras[0].effectiveThreshold(config.fusion), 20);
+  const LightingSettings lighting = config.cameras[0].effectiveLighting(config.fusion);
+  EXPECT_TRUE(lighting.adapt) << "the light's model is on by default";
+  EXPECT_EQ(lighting.drift_frames, 256);
+  EXPECT_EQ(lighting.min_agreement, 0.7);
+  EXPECT_EQ(lighting.agreement_grey_levels, 8);
+}
+
+// fusion.lighting for every camera; a camera's own lighting keys replace those they name.
+TEST(Config, LightingIsSetForAllAndOverriddenPerCamera) {
+  const Config config = parseConfig(
+      "map: {}\n"
+      "fusion:\n"
+      "  lighting: {drift_frames: 900, min_agreement: 0.6}\n"
+      "cameras:\n"
+      "  - {name: c0, source: sim://room/c0}\n"
+      "  - {name: c1, source: sim://room/c1, lighting: {adapt: false}}\n"
+      "  - {name: c2, source: sim://room/c2, lighting: {drift_frames: 30, "
+      "agreement_grey_levels: 12}}\n",
+      "/etc/occmap/occmap.yaml");
+  const LightingSettings c0 = config.cameras[0].effectiveLighting(config.fusion);
+  EXPECT_TRUE(c0.adapt);
+  EXPECT_EQ(c0.drift_frames, 900);
+  EXPECT_EQ(c0.min_agreement, 0.6);
+  EXPECT_EQ(c0.agreement_grey_levels, 8);
+  const LightingSettings c1 = config.cameras[1].effectiveLighting(config.fusion);
+  EXPECT_FALSE(c1.adapt);
+  EXPECT_EQ(c1.drift_frames, 900);
+  const LightingSettings c2 = config.cameras[2].effectiveLighting(config.fusion);
+  EXPECT_TRUE(c2.adapt);
+  EXPECT_EQ(c2.drift_frames, 30);
+  EXPECT_EQ(c2.min_agreement, 0.6);
+  EXPECT_EQ(c2.agreement_grey_levels, 12);
 }
 
 TEST(Config, RelativePathsAreTakenFromTheConfigFilesFolder) {
@@ -236,6 +268,14 @@ TEST(ConfigErrors, OutOfRangeValuesSayTheRange) {
   expectError(kMinimal + "fusion:\n  column_height_m: 5.5\n", 6, "fusion.column_height_m", "<= 5");
   expectError(kMinimal + "fusion:\n  max_wait_ms: -1\n", 6, "fusion.max_wait_ms",
               "from 0 to 10000");
+  expectError(kMinimal + "fusion:\n  lighting: {drift_frames: 0}\n", 6,
+              "fusion.lighting.drift_frames", "from 1 to 1000000");
+  expectError(kMinimal + "fusion:\n  lighting: {min_agreement: 1.5}\n", 6,
+              "fusion.lighting.min_agreement", "<= 1");
+  expectError(kMinimal + "    lighting: {adapt: maybe}\n", 5, "cameras[0].lighting.adapt",
+              "true or false");
+  expectError(kMinimal + "    lighting: {adapts: false}\n", 5, "cameras[0].lighting.adapts",
+              "did you mean adapt?");
   expectError(kMinimal + "    fps: 0\n", 5, "cameras[0].fps", "> 0");
   expectError(kMinimal + "    fps: .inf\n", 5, "cameras[0].fps", "finite");
   expectError(kMinimal + "    image_region: [0, 0, 720]\n", 5, "cameras[0].image_region",

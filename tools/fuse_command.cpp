@@ -14,6 +14,7 @@
 #include "config/exit_codes.h"
 #include "config/input_error.h"
 #include "config/rig.h"
+#include "core/changed_pixels.h"
 #include "core/fusion_kernel.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
@@ -162,6 +163,8 @@ int run(const FuseOptions& o) {
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     changed[k].assign(changedMaskBytes(cameras[k].source->width(), cameras[k].source->height()), 0);
   }
+  std::vector<ChangedPixels> changed_pixels;
+  for (const RigCamera& camera : cameras) changed_pixels.emplace_back(camera.lighting);
   std::vector<const std::uint8_t*> masks(cameras.size(), nullptr);
   std::vector<ImageView> live(cameras.size());
   OccupancyMap map(config.map);
@@ -189,9 +192,10 @@ int run(const FuseOptions& o) {
       // daemon leaves out a camera that has none: its cells count only if another camera sees them.
       live[k] = status == FrameSource::Status::kFrame ? frame.image : ImageView{};
       masks[k] = nullptr;
-      if (status == FrameSource::Status::kFrame) {
-        kernel.markChangedPixels(k, frame.image, cameras[k].background.view(), cameras[k].threshold,
-                                 changed[k].data());
+      // A frame the light's model does not explain counts as none, as in the daemon.
+      if (status == FrameSource::Status::kFrame &&
+          changed_pixels[k].mark(kernel, k, frame.image, cameras[k].background,
+                                 cameras[k].threshold, changed[k].data())) {
         masks[k] = changed[k].data();
       }
     }

@@ -91,6 +91,9 @@ class Scene {
   // apart.
   virtual double staticShade(const Eigen::Vector3d& point, const Eigen::Vector3d& normal) const = 0;
   virtual double objectShade(const SceneObject& object, const Eigen::Vector3d& point) const = 0;
+  // The light at time t as a gain on every grey level a camera records (daylight, a dimmer, the
+  // camera's own exposure): 1 while it is as it was when the backgrounds were taken.
+  virtual double lightGain(double /*t*/) const { return 1.0; }
 
   // The nearest static surface along a ray (t > 1e-9), with its normal; rays from inside the room
   // always hit something (walls and ceiling close it).
@@ -104,7 +107,8 @@ class Scene {
   Hit castRoom(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction) const;
 };
 
-// Built-in scenes by name ("room": the paper's set-up). Empty for an unknown name.
+// Built-in scenes by name ("room": the paper's set-up; "room-light": the same room and people while
+// its light steps and ramps, docs/lighting.md). Empty for an unknown name.
 std::unique_ptr<Scene> makeScene(std::string_view name);
 std::vector<std::string> sceneNames();
 
