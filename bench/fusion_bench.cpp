@@ -7,7 +7,6 @@
 // The last lines printed are one JSON object per configuration and mode, cold figures, for
 // scripts/bench. Rates are maps per second of CPU time on one core (the machine may be shared).
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -324,61 +323,43 @@ void fuseCase(benchmark::State& state, const std::string& config, const std::str
 // The fusion thread's share as occmapd runs it: a map every 1/60 s and the rest of each period
 // idle, so that between two maps the tables may leave the caches (and the core its fast states),
 // as they do in the daemon; the cold cases, which run maps back to back, keep the tables in the
-// last-level cache. Only the fusion is timed (manual time), the masks rotate as in the cold case.
-void pacedFuseCase(benchmark::State& state, const std::string& config,
-                   const std::string& mode_name) {
-  ConfigData& data = configData(config);
-  FusionKernel& kernel = *mode(data, mode_name).kernel;
-  const std::vector<std::vector<const std::uint8_t*>> changed = maskSets(data);
-  std::vector<CellState> out(data.rig->config().map.cellCount());
-  constexpr auto kPeriod = std::chrono::nanoseconds(1'000'000'000 / 60);
-  auto next = std::chrono::steady_clock::now();
-  std::size_t i = 0;
-  for (auto _ : state) {
-    next += kPeriod;
-    std::this_thread::sleep_until(next);
-    const auto began = std::chrono::steady_clock::now();
-    kernel.fuse(changed[i], out);
-    benchmark::DoNotOptimize(out.data());
-    benchmark::ClobberMemory();
-    state.SetIterationTime(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count());
-    if (++i == changed.size()) i = 0;
-  }
-  finish(state);
-}
-
-// Where the paced cases' extra time goes: after each 1/60 s pause, six maps back to back, each
-// timed alone; the counters are each position's median (microseconds). Were it the tables leaving
-// the caches, the first map would pay and the second run at the cold speed; a slow approach over
+// last-level cache. Only the fusion is timed (manual time: the first map after each pause), the
+// masks rotate as in the cold case.
+// With `in_a_row` > 1 (fuse/after_pause), that many maps follow each pause back to back, each timed
+// alone; the counters map1_us ... are each position's median. Were the gap the tables leaving the
+// caches, the first map would pay and the second run at the cold speed; a slow approach over
 // several maps is the core (its clock, its predictors) warming up again.
-void afterPauseCase(benchmark::State& state, const std::string& config,
-                    const std::string& mode_name) {
+void pacedFuseCase(benchmark::State& state, const std::string& config, const std::string& mode_name,
+                   int in_a_row) {
   ConfigData& data = configData(config);
   FusionKernel& kernel = *mode(data, mode_name).kernel;
   const std::vector<std::vector<const std::uint8_t*>> changed = maskSets(data);
   std::vector<CellState> out(data.rig->config().map.cellCount());
   constexpr auto kPeriod = std::chrono::nanoseconds(1'000'000'000 / 60);
-  constexpr int kInARow = 6;
-  std::array<std::vector<double>, kInARow> took;
+  std::vector<std::vector<double>> took(static_cast<std::size_t>(in_a_row));
   auto next = std::chrono::steady_clock::now();
   std::size_t i = 0;
   for (auto _ : state) {
     next += kPeriod;
     std::this_thread::sleep_until(next);
-    for (int k = 0; k < kInARow; ++k) {
+    for (auto& times : took) {
       const auto began = std::chrono::steady_clock::now();
       kernel.fuse(changed[i], out);
       benchmark::DoNotOptimize(out.data());
       benchmark::ClobberMemory();
-      took[static_cast<std::size_t>(k)].push_back(
-          std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - began)
-              .count());
+      const double seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - began).count();
+      if (&times == &took.front()) state.SetIterationTime(seconds);
+      times.push_back(seconds * 1e6);
       if (++i == changed.size()) i = 0;
     }
   }
-  for (int k = 0; k < kInARow; ++k) {
-    auto& times = took[static_cast<std::size_t>(k)];
+  if (in_a_row == 1) {
+    finish(state);
+    return;
+  }
+  for (std::size_t k = 0; k < took.size(); ++k) {
+    auto& times = took[k];
     std::nth_element(times.begin(), times.begin() + static_cast<std::ptrdiff_t>(times.size() / 2),
                      times.end());
     state.counters["map" + std::to_string(k + 1) + "_us"] = times[times.size() / 2];
@@ -457,11 +438,11 @@ void registerAll() {
       }
       // 120 maps at 60 Hz: two seconds a repetition.
       benchmark::RegisterBenchmark((config + "/" + mode_name + "/fuse/paced").c_str(),
-                                   pacedFuseCase, config, mode_name)
+                                   pacedFuseCase, config, mode_name, 1)
           ->UseManualTime()
           ->Iterations(120);
       benchmark::RegisterBenchmark((config + "/" + mode_name + "/fuse/after_pause").c_str(),
-                                   afterPauseCase, config, mode_name)
+                                   pacedFuseCase, config, mode_name, 6)
           ->Iterations(120);
     }
   }
