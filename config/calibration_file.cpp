@@ -5,6 +5,7 @@
 #include <climits>
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
 #include <exception>
 #include <limits>
 #include <memory>
@@ -647,6 +648,23 @@ LoadedCalibration loadCalibration(const std::filesystem::path& file,
                    "is neither a Tsai calibration (ETISEO XML, starting with <?xml) nor an "
                    "OpenCV calibration (YAML starting with %YAML:1.0, or a file named .yml or "
                    ".yaml)");
+}
+
+std::string tsaiXmlText(const TsaiParameters& p, const std::string& camera_name) {
+  char text[1024];
+  std::snprintf(text, sizeof text,
+                "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+                "<Camera name=\"%s\">\n"
+                "  <Geometry width=\"%d\" height=\"%d\" ncx=\"%.17g\" nfx=\"%.17g\" dx=\"%.17g\" "
+                "dy=\"%.17g\" dpx=\"%.17g\" dpy=\"%.17g\"/>\n"
+                "  <Intrinsic focal=\"%.17g\" kappa1=\"%.17g\" cx=\"%.17g\" cy=\"%.17g\" "
+                "sx=\"%.17g\"/>\n"
+                "  <Extrinsic tx=\"%.17g\" ty=\"%.17g\" tz=\"%.17g\" rx=\"%.17g\" ry=\"%.17g\" "
+                "rz=\"%.17g\"/>\n"
+                "</Camera>\n",
+                camera_name.c_str(), p.width, p.height, p.ncx, p.nfx, p.dx, p.dy, p.dpx, p.dpy,
+                p.focal, p.kappa1, p.cx, p.cy, p.sx, p.tx, p.ty, p.tz, p.rx, p.ry, p.rz);
+  return text;
 }
 
 }  // namespace occmap

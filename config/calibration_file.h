@@ -23,6 +23,8 @@ namespace occmap {
 TsaiParameters loadTsaiXml(const std::filesystem::path& file);
 // The same from text already in memory; `file_name` only names the source in errors.
 TsaiParameters parseTsaiXml(std::string_view text, const std::string& file_name);
+// The same parameters as that XML, in full precision: what parseTsaiXml reads back exactly.
+std::string tsaiXmlText(const TsaiParameters& parameters, const std::string& camera_name);
 
 // OpenCV's pinhole model in the YAML that cv::FileStorage writes (OpenCV's calibration sample):
 // image_width, image_height, camera_matrix (3x3, no skew), distortion_coefficients (k1 k2 p1 p2

@@ -418,6 +418,50 @@ TEST(OccmapFuse, SimulatedRoomMapsAreTheReferenceFusionOfTheirFrames) {
   }
 }
 
+// occmap record of the simulated room under changing light, then occmap fuse of its replay.yaml:
+// the very maps occmap fuse makes of the simulated cameras themselves (the light's model
+// included), so a recording replays as it was.
+TEST(OccmapRecord, AReplayOfTheRecordingMakesTheSameMapsAsTheCameras) {
+  TemporaryFolder folder;
+  std::string text = readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml");
+  for (std::size_t at = 0; (at = text.find("sim://room/", at)) != std::string::npos;) {
+    text.replace(at, 11, "sim://room-light/");
+  }
+  writeText(folder / "room.yaml", text);
+  const auto recording = folder / "recording";
+  auto result = runCommand({kOccmap, "record", "--config", (folder / "room.yaml").string(), "--out",
+                            recording.string(), "--frames", "40"});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  for (const char* camera : {"c0", "c1", "c2", "c3"}) {
+    const std::string times = readWhole(recording / camera / "timestamps.csv");
+    EXPECT_EQ(times.rfind("frame,sequence,capture_utime\n0,0,", 0), 0u) << times;
+    EXPECT_EQ(std::count(times.begin(), times.end(), '\n'), 41) << camera;
+    EXPECT_TRUE(std::filesystem::exists(recording / camera / "000039.png"));
+    EXPECT_FALSE(std::filesystem::exists(recording / camera / "000040.png"));
+  }
+  result = runCommand({kOccmap, "fuse", "--config", (recording / "replay.yaml").string(), "--out",
+                       (folder / "replayed").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("wrote 40 maps"), std::string::npos) << result.out;
+  result = runCommand({kOccmap, "fuse", "--config", (folder / "room.yaml").string(), "--out",
+                       (folder / "live").string(), "--frames", "40"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  for (int n = 0; n < 40; ++n) {
+    char name[32];
+    std::snprintf(name, sizeof name, "map_%06d.png", n);
+    EXPECT_EQ(readWhole(folder / "replayed" / name), readWhole(folder / "live" / name)) << name;
+  }
+  // Nothing is lost: an existing recording is not written over, and how much to record is asked.
+  result = runCommand({kOccmap, "record", "--config", (folder / "room.yaml").string(), "--out",
+                       recording.string(), "--frames", "1"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("exists and is not an empty folder"), std::string::npos) << result.err;
+  result = runCommand({kOccmap, "record", "--config", (folder / "room.yaml").string(), "--out",
+                       (folder / "other").string()});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--frames is needed"), std::string::npos) << result.err;
+}
+
 TEST(OccmapBackground, TheMedianOfFramesDropsWhatPassesBy) {
   FilesRig rig;
   const std::string config = (rig.folder / "rig.yaml").string();

@@ -2,9 +2,9 @@
 // Tsai calibrations as ETISEO/PETS XML files, for tests that give a live camera (which has no scene
 // to take a calibration from) the geometry of one of the simulator's cameras.
 
-#include <cstdio>
 #include <string>
 
+#include "config/calibration_file.h"
 #include "core/tsai_camera.h"
 
 namespace occmap::testing {
@@ -20,20 +20,7 @@ inline constexpr const char* kDownwardXml = R"(<?xml version="1.0" encoding="UTF
 )";
 
 inline std::string tsaiXml(const TsaiParameters& p, const std::string& name = "camera") {
-  char text[1024];
-  std::snprintf(text, sizeof text,
-                "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-                "<Camera name=\"%s\">\n"
-                "  <Geometry width=\"%d\" height=\"%d\" ncx=\"%.17g\" nfx=\"%.17g\" dx=\"%.17g\" "
-                "dy=\"%.17g\" dpx=\"%.17g\" dpy=\"%.17g\"/>\n"
-                "  <Intrinsic focal=\"%.17g\" kappa1=\"%.17g\" cx=\"%.17g\" cy=\"%.17g\" "
-                "sx=\"%.17g\"/>\n"
-                "  <Extrinsic tx=\"%.17g\" ty=\"%.17g\" tz=\"%.17g\" rx=\"%.17g\" ry=\"%.17g\" "
-                "rz=\"%.17g\"/>\n"
-                "</Camera>\n",
-                name.c_str(), p.width, p.height, p.ncx, p.nfx, p.dx, p.dy, p.dpx, p.dpy, p.focal,
-                p.kappa1, p.cx, p.cy, p.sx, p.tx, p.ty, p.tz, p.rx, p.ry, p.rz);
-  return text;
+  return tsaiXmlText(p, name);
 }
 
 }  // namespace occmap::testing

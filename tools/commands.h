@@ -17,5 +17,6 @@ Command addBackgroundCommand(CLI::App& app);
 Command addViewCommand(CLI::App& app);
 Command addStatusCommand(CLI::App& app);
 Command addControlCommand(CLI::App& app);
+Command addRecordCommand(CLI::App& app);
 
 }  // namespace occmap::tools

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
   add(tools::addViewCommand, "view");
   add(tools::addStatusCommand, "status");
   add(tools::addControlCommand, "control");
+  add(tools::addRecordCommand, "record");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
