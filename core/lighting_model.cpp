@@ -144,6 +144,13 @@ ImageView LightingModel::correct(ImageView live) {
   // Locals, not members, in the loops: a byte store may alias any member, which the compiler
   // would then reload for every pixel (and not vectorize).
   const std::int32_t inverse = inverse_gain_q16_;
+  // In light within 0.2 % of the background's, dividing changes no grey level (255 / gain rounds
+  // to 255): the frame is its own corrected self, and nothing is clipped.
+  if (std::abs(inverse - 65536) * 255 < 32768) {
+    capped_in_use_ = false;
+    ++frames_;
+    return live;
+  }
   const int width = width_;
   for (int v = 0; v < height_; ++v) {
     const std::uint8_t* in = live.row(v);
