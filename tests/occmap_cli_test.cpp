@@ -342,28 +342,33 @@ TEST(OccmapFuse, TheLightsModelKeepsTheFloorFreeWhileTheLightChanges) {
   }
   const std::string fusion = "fusion:\n";
   ASSERT_NE(text.find(fusion), std::string::npos) << "examples/sim-room.yaml changed";
-  auto seenFree = [&](const std::string& config, const std::string& name) {
+  auto seenFree = [&](const std::string& config, const std::string& name, int frames) {
     writeText(folder / name, config);
-    const auto result = runCommand({kOccmap, "fuse", "--config", (folder / name).string(), "--out",
-                                    (folder / (name + "-maps")).string(), "--frames", "120"});
+    const auto result =
+        runCommand({kOccmap, "fuse", "--config", (folder / name).string(), "--out",
+                    (folder / (name + "-maps")).string(), "--frames", std::to_string(frames)});
     EXPECT_EQ(result.exit_code, 0) << result.err;
-    EXPECT_NE(result.out.find("objects found 600 of 600"), std::string::npos) << result.out;
+    const std::string found =
+        "objects found " + std::to_string(5 * frames) + " of " + std::to_string(5 * frames);
+    EXPECT_NE(result.out.find(found), std::string::npos) << result.out;
     const std::string label = "% of cells a camera sees clearly are free";
     const std::size_t at = result.out.find(label);
     EXPECT_NE(at, std::string::npos) << result.out;
     const std::size_t start = result.out.rfind("; ", at);
     return at == std::string::npos ? -1.0 : std::atof(result.out.c_str() + start + 2);
   };
-  const double adapted = seenFree(text, "adapted.yaml");
+  // A whole cycle of the light with the model; without it, its first two seconds (1, then 0.6)
+  // are enough to show what a fixed background does.
+  const double adapted = seenFree(text, "adapted.yaml", 120);
   std::string fixed_text = text;
   fixed_text.insert(fixed_text.find(fusion) + fusion.size(), "  lighting: {adapt: false}\n");
-  const double fixed = seenFree(fixed_text, "fixed.yaml");
+  const double fixed = seenFree(fixed_text, "fixed.yaml", 60);
   std::printf(
       "cells a camera sees clearly that are free: %.2f %% with the light's model, %.2f %% "
       "with a fixed background\n",
       adapted, fixed);
   EXPECT_GE(adapted, 98.0);
-  EXPECT_LT(fixed, 60.0) << "the light's changes should defeat a fixed background";
+  EXPECT_LT(fixed, 75.0) << "the light's step should defeat a fixed background";
 }
 
 // occmap fuse runs the daemon's kernel; its maps must still be the reference fusion of the same
