@@ -182,6 +182,7 @@ TEST(Pipeline, UnderChangingLightEachMapIsTheOffLineReplayOfItsFrames) {
   std::vector<CellState> cells(config.map.cellCount());
   std::vector<const std::uint8_t*> used(cameras);
   std::size_t compared = 0;
+  std::size_t complete = 0;
   double worst_free = 1.0;
   for (const DecodedMap& map : received) {
     ASSERT_EQ(map.cameras.size(), cameras);
@@ -203,6 +204,11 @@ TEST(Pipeline, UnderChangingLightEachMapIsTheOffLineReplayOfItsFrames) {
           << "map " << map.seq << ", cell " << cell;
     }
     ++compared;
+    // How free the floor is depends on how many cameras a frame set has (one camera leaves the
+    // wedges behind people occupied): judged on maps of all four, which a slow (sanitized) run
+    // makes fewer of.
+    if (std::count(used.begin(), used.end(), nullptr) != 0) continue;
+    ++complete;
     const auto free = static_cast<double>(std::count(cells.begin(), cells.end(), CellState::kFree));
     const auto seen =
         static_cast<double>(cells.size() - static_cast<std::size_t>(std::count(
@@ -210,10 +216,11 @@ TEST(Pipeline, UnderChangingLightEachMapIsTheOffLineReplayOfItsFrames) {
     worst_free = std::min(worst_free, free / seen);
   }
   std::printf(
-      "%zu maps compared with their replay; the least free of them had %.1f %% of its seen "
-      "cells free\n",
-      compared, 100 * worst_free);
+      "%zu maps compared with their replay; the least free of the %zu of all four cameras had "
+      "%.1f %% of its seen cells free\n",
+      compared, complete, 100 * worst_free);
   EXPECT_GE(compared, 10u);
+  EXPECT_GE(complete, 5u);
   // The room has people, chairs and a robot: most of what is seen is free in every map all the
   // same (a fixed background would leave most of the floor occupied at 0.6 and 1.5).
   EXPECT_GE(worst_free, 0.85);
