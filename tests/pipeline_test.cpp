@@ -184,7 +184,10 @@ TEST(Pipeline, UnderChangingLightEachMapIsTheOffLineReplayOfItsFrames) {
   std::size_t compared = 0;
   std::size_t complete = 0;
   double worst_free = 1.0;
-  for (const DecodedMap& map : received) {
+  // Every third map (a fusion under TSan takes some 70 ms): a third of a cycle of the light still
+  // gives some forty of them.
+  for (std::size_t i = 0; i < received.size(); i += 3) {
+    const DecodedMap& map = received[i];
     ASSERT_EQ(map.cameras.size(), cameras);
     bool within = true;
     for (std::size_t k = 0; k < cameras; ++k) {
