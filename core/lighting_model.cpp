@@ -69,7 +69,7 @@ void LightingModel::reset(ImageView background) {
   explained_ = true;
   capped_in_use_ = false;
   frames_ = 0;
-  buildTables();
+  updateInverse();
 }
 
 void LightingModel::estimateGain(ImageView live) {
@@ -128,7 +128,7 @@ void LightingModel::estimateGain(ImageView live) {
   if (explained_) gain_ = std::clamp(sum_lb / sum_bb, 0.25, 4.0);
 }
 
-void LightingModel::buildTables() {
+void LightingModel::updateInverse() {
   // 1 / gain in 16.16 (gain >= 1/4, so at most 2^18: l x inverse stays within 31 bits).
   inverse_gain_q16_ = static_cast<std::int32_t>(std::lround(65536.0 / gain_));
 }
@@ -138,7 +138,7 @@ ImageView LightingModel::correct(ImageView live) {
     throw std::invalid_argument("LightingModel: the frame's size differs from the background's");
   }
   estimateGain(live);
-  buildTables();
+  updateInverse();
   // live / gain, rounded, at most 255: in 16.16 fixed point, which the compiler puts in vectors
   // (a byte table lookup per pixel it cannot).
   // Locals, not members, in the loops: a byte store may alias any member, which the compiler
@@ -180,9 +180,11 @@ ImageView LightingModel::background() const {
 void LightingModel::follow(ImageView live, const std::uint8_t* changed_tiles) {
   if (!explained_ || frames_ == 0) return;
   // Each pixel is visited every kBands frames, so each visit covers kBands frames of drift. In
-  // 16.16 fixed point; drift_frames >= kBands keeps the step's product within 32 bits.
+  // 16.16 fixed point, at most 1/2: a difference (16 bits and a sign) times it stays within 32
+  // bits, and a drift faster than half of a lasting difference every visit (drift_frames < 8) is
+  // no drift anyway.
   const std::int32_t alpha_q16 = static_cast<std::int32_t>(std::clamp<long>(
-      std::lround(65536.0 * kBands / std::max(settings_.drift_frames, kBands)), 1, 65536));
+      std::lround(65536.0 * kBands / std::max(settings_.drift_frames, kBands)), 1, 32768));
   // live / gain x 256, in 16.16: the live pixel in the background's light, in its fine steps.
   const std::int32_t inverse = inverse_gain_q16_;
   const std::size_t across = tilesAcross(width_);

@@ -28,7 +28,7 @@ namespace occmap {
 struct LightingSettings {
   bool adapt = true;  // false: today's fixed background, exactly
   // The time constant of the drift, in frames: an unchanged background pixel covers about 63 % of
-  // a lasting difference in this many frames (256: about 8.5 s at 30 fps).
+  // a lasting difference in this many frames (256: about 8.5 s at 30 fps); below 8, as 8.
   int drift_frames = 256;
   // The share of the usable sampled pixels that must agree with one gain (within the agreement
   // band) for the change to count as light. Below it the camera is degraded. The trade: objects
@@ -76,7 +76,7 @@ class LightingModel {
 
  private:
   void estimateGain(ImageView live);
-  void buildTables();
+  void updateInverse();
 
   LightingSettings settings_;
   int width_ = 0;
