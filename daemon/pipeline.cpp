@@ -261,6 +261,11 @@ void Pipeline::captureLoop(std::size_t k) {
     const int threshold = camera.control.threshold.load(std::memory_order_relaxed);
     slot.explained = camera.changed_pixels.mark(kernel_, k, frame.image, background, threshold,
                                                 slot.changed.data());
+    if (const LightingModel* model = camera.changed_pixels.lighting(); model != nullptr) {
+      camera.lighting_gain.store(model->gain(), std::memory_order_relaxed);
+      camera.lighting_agreement.store(model->agreement(), std::memory_order_relaxed);
+    }
+    if (!slot.explained) camera.unexplained_frames.fetch_add(1, std::memory_order_relaxed);
     if (slot.explained == camera.unexplained) noteLighting(k, slot.explained);
     slot.sequence = frame.sequence;
     slot.capture_time_us = frame.capture_time_us;
@@ -278,6 +283,7 @@ void Pipeline::captureLoop(std::size_t k) {
 void Pipeline::noteLighting(std::size_t k, bool explained) {
   Camera& camera = *cameras_[k];
   camera.unexplained = !explained;
+  camera.unexplained_now.store(!explained, std::memory_order_relaxed);
   std::uint64_t suppressed = 0;
   if (!camera.lighting_notes.allow(suppressed)) return;  // a view on the edge flips often
   const LightingModel* model = camera.changed_pixels.lighting();
@@ -464,6 +470,11 @@ void Pipeline::fillReport(std::int64_t now) {
     camera.last_error.copyTo(c.last_error);
     c.threshold = camera.control.threshold.load(std::memory_order_relaxed);
     c.background_utime = camera.control.background_utime.load(std::memory_order_relaxed);
+    c.lighting_adapt = prepared_.rig.cameras()[k].lighting.adapt;
+    c.lighting_gain = camera.lighting_gain.load(std::memory_order_relaxed);
+    c.lighting_agreement = camera.lighting_agreement.load(std::memory_order_relaxed);
+    c.lighting_explained = !camera.unexplained_now.load(std::memory_order_relaxed);
+    c.unexplained_frames = camera.unexplained_frames.load(std::memory_order_relaxed);
   }
 }
 

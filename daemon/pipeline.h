@@ -129,6 +129,11 @@ class Pipeline {
     CameraControl control;         // threshold and background as control requests change them
     ChangedPixels changed_pixels;  // capture thread only: difference and the light's model
     bool unexplained = false;      // capture thread only: the last frame's light was not explained
+    // The same and the model's figures, for the status (lighting_status_t).
+    std::atomic<bool> unexplained_now{false};
+    std::atomic<double> lighting_gain{1.0};
+    std::atomic<double> lighting_agreement{1.0};
+    std::atomic<std::uint64_t> unexplained_frames{0};
     // The newest frame: when fusion is behind, the oldest gives way (fusion only takes the newest).
     TripleBuffer<CapturedFrame> frames;
     alignas(64) std::atomic<std::uint64_t> frames_in{0};

@@ -1,5 +1,6 @@
-// The bus's parts without a network: the in-memory bus the tests put between programs, and the
-// rate at which status requests are answered, with time passed in (transport/).
+// The bus's parts without a network: the in-memory bus the tests put between programs, the rate at
+// which status requests are answered, with time passed in, and the lighting status as it is read
+// from the network (transport/).
 #include <cstdint>
 #include <string>
 #include <thread>
@@ -9,6 +10,7 @@
 #include <occmap/status_request_t.hpp>
 
 #include "transport/memory_bus.h"
+#include "transport/status_message.h"
 #include "transport/status_requests.h"
 
 namespace occmap {
@@ -99,6 +101,52 @@ TEST(StatusRequests, AreAnsweredOldestFirstAtTheBoundedRateAndAFloodIsShedAndCou
   EXPECT_EQ(answered.size(), 16u);
   EXPECT_EQ(answered.back(), 115);
   EXPECT_EQ(requests.waiting(), 0u);
+}
+
+// A lighting_status_t from anyone on the network: decoded when it is exactly one, refused with a
+// reason when a count, a length or the fingerprint does not fit, never an exception.
+TEST(LightingStatus, IsDecodedWhenWholeAndRefusedWithAReasonOtherwise) {
+  occmap::lighting_status_t sent{};
+  sent.utime = 1'700'000'000'000'000;
+  sent.request_id = 7;
+  sent.hostname = "cell-3";
+  sent.num_cameras = 2;
+  sent.camera_name = {"c0", "c1"};
+  sent.adapt = {1, 1};
+  sent.gain = {0.62, 1.0};
+  sent.agreement = {0.93, 0.12};
+  sent.explained = {1, 0};
+  sent.unexplained_frames = {0, 450};
+  std::vector<std::uint8_t> data(static_cast<std::size_t>(sent.getEncodedSize()));
+  ASSERT_EQ(sent.encode(data.data(), 0, static_cast<int>(data.size())),
+            static_cast<int>(data.size()));
+  std::string error;
+  const auto decoded = decodeLightingStatus(data.data(), data.size(), &error);
+  ASSERT_TRUE(decoded) << error;
+  EXPECT_EQ(decoded->camera_name, sent.camera_name);
+  EXPECT_EQ(decoded->gain, sent.gain);
+  EXPECT_EQ(decoded->explained, sent.explained);
+  EXPECT_EQ(decoded->unexplained_frames, sent.unexplained_frames);
+
+  auto refused = [&](std::vector<std::uint8_t> bytes_in, const std::string& why) {
+    std::string reason;
+    EXPECT_FALSE(decodeLightingStatus(bytes_in.data(), bytes_in.size(), &reason)) << why;
+    EXPECT_NE(reason.find(why), std::string::npos) << reason;
+  };
+  refused({data.begin(), data.end() - 1}, "truncated in the cameras' figures");
+  std::vector<std::uint8_t> longer = data;
+  longer.push_back(0);
+  refused(longer, "bytes left over");
+  std::vector<std::uint8_t> other = data;
+  other[0] ^= 0xFF;
+  refused(other, "fingerprint");
+  // num_cameras sits after the fingerprint, utime, request_id and the hostname (length + text +
+  // NUL): made negative.
+  std::vector<std::uint8_t> negative = data;
+  const std::size_t count_at = 8 + 8 + 8 + 4 + sent.hostname.size() + 1;
+  negative[count_at] = 0xFF;
+  negative[count_at + 1] = 0xFE;
+  refused(negative, "num_cameras is negative");
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include "capture/image_file.h"
 #include "child_process.h"
 #include "network_namespace.h"
 #include "sim_room_config.h"
@@ -104,6 +105,47 @@ TEST(OccmapControl, SetsAThresholdThatStatusShowsAndAReloadPutsBack) {
     if (!back) std::this_thread::sleep_for(200ms);
   }
   EXPECT_TRUE(back) << "after SIGHUP the thresholds should be the config's: " << result.out;
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
+}
+
+// The light's status (lighting_status_t, docs/lighting.md) through `occmap status`: camera c1's
+// background is a black picture, which no change of light explains, so c1 is degraded (left out
+// of the maps) and said to be; the others' light is as when their backgrounds were taken.
+TEST(OccmapStatus, SaysWhichCameraNoLightExplainsAndTheOthersLight) {
+  if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+    GTEST_SKIP() << problem;
+  }
+  TemporaryFolder folder;
+  std::string error;
+  ASSERT_TRUE(writeGreyPng(folder / "black.png", Image(640, 480, 0), error)) << error;
+  std::string text = testing::simRoomConfig("udpm://239.255.76.67:7667?ttl=0");
+  const std::string c1 = "{name: c1, source: \"sim://room/c1\"}";
+  ASSERT_NE(text.find(c1), std::string::npos);
+  text.replace(text.find(c1), c1.size(),
+               "{name: c1, source: \"sim://room/c1\", background: black.png}");
+  const auto config = folder.write("room.yaml", text);
+  ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "occmapd");
+  ASSERT_TRUE(waitForError(daemon, "ready:", testing::eventually(30s))) << daemon.err();
+  ASSERT_TRUE(waitForError(daemon, "camera c1: no change of light explains its view",
+                           testing::eventually(5s)))
+      << daemon.err();
+
+  auto result = runCommand({kOccmap, "status", "--json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("\"lighting_camera_name\":[\"c0\",\"c1\",\"c2\",\"c3\"]"),
+            std::string::npos)
+      << result.out;
+  EXPECT_NE(result.out.find("\"lighting_explained\":[true,false,true,true]"), std::string::npos)
+      << result.out;
+  EXPECT_NE(result.out.find("\"lighting_adapt\":[true,true,true,true]"), std::string::npos)
+      << result.out;
+  result = runCommand({kOccmap, "status"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("c1: DEGRADED, no change of light explains its view"),
+            std::string::npos)
+      << result.out;
+  EXPECT_NE(result.out.find("c0: light 1.00 x the background's"), std::string::npos) << result.out;
   daemon.signal(SIGTERM);
   EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
 }

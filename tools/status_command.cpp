@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <occmap/control_status_t.hpp>
+#include <occmap/lighting_status_t.hpp>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 
@@ -17,6 +18,7 @@
 #include "transport/control_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/status_message.h"
+#include "transport/status_publisher.h"
 #include "transport/status_text.h"
 
 namespace occmap::tools {
@@ -83,14 +85,34 @@ int run(const StatusOptions& o) {
           control_answers.push_back(std::move(*control));
         }
       });
-  if (!subscribed || !control_subscribed) {
-    std::fprintf(stderr, "occmap status: failed: cannot subscribe to %s at %s\n",
-                 (subscribed ? control_channel : o.channel).c_str(), o.lcm_url.c_str());
+  // The same for the lighting_status_t (lcmtypes/lighting_status_t.lcm).
+  const std::string lighting_channel = lightingStatusChannel(o.channel);
+  std::vector<occmap::lighting_status_t> lighting_answers;
+  const bool lighting_subscribed = bus.subscribe(
+      lighting_channel, [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+        std::optional<occmap::lighting_status_t> lighting = decodeLightingStatus(data, size);
+        if (lighting && lighting->request_id == request_id &&
+            lighting_answers.size() < kMaxControlAnswers) {
+          lighting_answers.push_back(std::move(*lighting));
+        }
+      });
+  if (!subscribed || !control_subscribed || !lighting_subscribed) {
+    const std::string& channel = !subscribed           ? o.channel
+                                 : !control_subscribed ? control_channel
+                                                       : lighting_channel;
+    std::fprintf(stderr, "occmap status: failed: cannot subscribe to %s at %s\n", channel.c_str(),
+                 o.lcm_url.c_str());
     return kExitFailure;
   }
   const auto controlOfAnswer = [&]() -> const occmap::control_status_t* {
     for (const occmap::control_status_t& control : control_answers) {
       if (control.hostname == answer->hostname) return &control;
+    }
+    return nullptr;
+  };
+  const auto lightingOfAnswer = [&]() -> const occmap::lighting_status_t* {
+    for (const occmap::lighting_status_t& lighting : lighting_answers) {
+      if (lighting.hostname == answer->hostname) return &lighting;
     }
     return nullptr;
   };
@@ -102,12 +124,12 @@ int run(const StatusOptions& o) {
   const auto deadline =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.timeout));
   auto next_request = start;
-  // Once the status has come, its control_status_t gets this long more (within the deadline): the
-  // daemon sends it right after the status, and a daemon from before control requests never does,
-  // which must not cost its user the whole timeout.
+  // Once the status has come, its control_status_t and lighting_status_t get this long more (within
+  // the deadline): the daemon sends them right after the status, and a daemon from before them
+  // never does, which must not cost its user the whole timeout.
   constexpr auto kControlGrace = std::chrono::milliseconds(500);
   std::optional<Clock::time_point> control_deadline;
-  while (!answer || controlOfAnswer() == nullptr) {
+  while (!answer || controlOfAnswer() == nullptr || lightingOfAnswer() == nullptr) {
     const auto now = Clock::now();
     if (answer && !control_deadline) control_deadline = std::min(deadline, now + kControlGrace);
     if (now >= (control_deadline ? *control_deadline : deadline)) break;
@@ -161,10 +183,11 @@ int run(const StatusOptions& o) {
   // Without a control_status_t (a daemon from before control requests, or one lost on the way),
   // the status alone, as such a daemon always gave it.
   const occmap::control_status_t* control = controlOfAnswer();
+  const occmap::lighting_status_t* lighting = lightingOfAnswer();
   if (o.json) {
-    std::printf("%s\n", formatStatusJson(*answer, control).c_str());
+    std::printf("%s\n", formatStatusJson(*answer, control, lighting).c_str());
   } else {
-    std::printf("%s", formatStatusTable(*answer, control).c_str());
+    std::printf("%s", formatStatusTable(*answer, control, lighting).c_str());
   }
   return kExitOk;
 }

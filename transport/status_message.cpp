@@ -85,7 +85,36 @@ const char* controlStatusLayoutError(const std::uint8_t* data, std::size_t size)
   return "";
 }
 
+// The same for lighting_status_t (lcmtypes/lighting_status_t.lcm).
+const char* lightingStatusLayoutError(const std::uint8_t* data, std::size_t size) {
+  WireReader in(data, size);
+  std::int64_t fingerprint = 0;
+  if (!in.read(fingerprint)) return "too short for an LCM message";
+  if (fingerprint != occmap::lighting_status_t::getHash()) {
+    return "not an occmap.lighting_status_t (fingerprint)";
+  }
+  if (!readAll<std::int64_t, std::int64_t>(in)) return "truncated in utime or request_id";
+  if (!readStrings(in, 1)) return "hostname is not a string that fits";
+  std::int16_t cameras = 0;
+  if (!in.read(cameras)) return "truncated before num_cameras";
+  if (cameras < 0) return "num_cameras is negative";
+  if (!readStrings(in, cameras)) return "a camera's name is not a string that fits";
+  // adapt (int8), gain, agreement (double), explained (int8), unexplained_frames (int64), each
+  // num_cameras long: at most 32767 * 26 bytes, no overflow.
+  if (!in.skip(static_cast<std::size_t>(cameras) * (1 + 8 + 8 + 1 + 8))) {
+    return "truncated in the cameras' figures";
+  }
+  if (in.remaining() != 0) return "bytes left over: the counts do not add up to the size";
+  return "";
+}
+
 }  // namespace
+
+std::optional<occmap::lighting_status_t> decodeLightingStatus(const std::uint8_t* data,
+                                                              std::size_t size,
+                                                              std::string* error) {
+  return decodeWalked<occmap::lighting_status_t>(data, size, error, lightingStatusLayoutError);
+}
 
 std::optional<std::int64_t> decodeStatusRequest(const std::uint8_t* data, std::size_t size) {
   // Fixed-size fields only: LCM's decoder checks each against the length, so it is safe as it is.

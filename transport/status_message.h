@@ -12,6 +12,7 @@
 #include <string>
 
 #include <occmap/control_status_t.hpp>
+#include <occmap/lighting_status_t.hpp>
 #include <occmap/status_t.hpp>
 
 namespace occmap {
@@ -30,5 +31,11 @@ std::optional<occmap::status_t> decodeStatus(const std::uint8_t* data, std::size
 std::optional<occmap::control_status_t> decodeControlStatus(const std::uint8_t* data,
                                                             std::size_t size,
                                                             std::string* error = nullptr);
+
+// A lighting_status_t, or nothing when the bytes are not exactly one; then `error`, if given, says
+// why. Checked the same way as a status_t.
+std::optional<occmap::lighting_status_t> decodeLightingStatus(const std::uint8_t* data,
+                                                              std::size_t size,
+                                                              std::string* error = nullptr);
 
 }  // namespace occmap

@@ -7,10 +7,15 @@
 
 namespace occmap {
 
+std::string lightingStatusChannel(const std::string& status_channel) {
+  return status_channel + "_LIGHTING";
+}
+
 StatusPublisher::StatusPublisher(std::string status_channel, std::size_t cameras,
                                  std::int64_t now_ns)
     : status_channel_(std::move(status_channel)),
       control_status_channel_(controlStatusChannel(status_channel_)),
+      lighting_status_channel_(lightingStatusChannel(status_channel_)),
       samples_(kRateSamples, Sample{now_ns, 0, std::vector<std::uint64_t>(cameras)}) {
   status_.cameras.resize(cameras);
   for (occmap::camera_status_t& camera : status_.cameras) camera.last_error.reserve(kMaxErrorText);
@@ -93,6 +98,29 @@ void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t
   buffer_.resize(static_cast<std::size_t>(control_status_.getEncodedSize()));
   control_status_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
   if (!bus.publish(control_status_channel_, buffer_)) ++errors_;
+
+  lighting_status_.utime = status_.utime;
+  lighting_status_.request_id = request_id;
+  lighting_status_.hostname = report.hostname;
+  lighting_status_.num_cameras = static_cast<std::int16_t>(cameras);
+  lighting_status_.camera_name.resize(cameras);
+  lighting_status_.adapt.resize(cameras);
+  lighting_status_.gain.resize(cameras);
+  lighting_status_.agreement.resize(cameras);
+  lighting_status_.explained.resize(cameras);
+  lighting_status_.unexplained_frames.resize(cameras);
+  for (std::size_t k = 0; k < cameras; ++k) {
+    const CameraReport& c = report.cameras[k];
+    lighting_status_.camera_name[k] = c.name;
+    lighting_status_.adapt[k] = c.lighting_adapt;
+    lighting_status_.gain[k] = c.lighting_gain;
+    lighting_status_.agreement[k] = c.lighting_agreement;
+    lighting_status_.explained[k] = c.lighting_explained;
+    lighting_status_.unexplained_frames[k] = static_cast<std::int64_t>(c.unexplained_frames);
+  }
+  buffer_.resize(static_cast<std::size_t>(lighting_status_.getEncodedSize()));
+  lighting_status_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  if (!bus.publish(lighting_status_channel_, buffer_)) ++errors_;
 }
 
 }  // namespace occmap

@@ -1,10 +1,10 @@
 #pragma once
-// The daemon's status onto the bus: status_t, and beside it control_status_t (a type of its own,
-// so that status_t keeps the fingerprint every reader built before control requests decodes;
-// lcmtypes/control_status_t.lcm). The pipeline fills a DaemonReport of plain counters; this turns
-// it into the messages, with rates measured over the last few periodic statuses, and sends them.
-// Both messages are filled in place: once their strings and vectors have their size (the first
-// time), publishing allocates nothing.
+// The daemon's status onto the bus: status_t, and beside it control_status_t and lighting_status_t
+// (types of their own, so that status_t keeps the fingerprint every reader built before them
+// decodes; lcmtypes/control_status_t.lcm, lighting_status_t.lcm). The pipeline fills a DaemonReport
+// of plain counters; this turns it into the messages, with rates measured over the last few
+// periodic statuses, and sends them. Both messages are filled in place: once their strings and
+// vectors have their size (the first time), publishing allocates nothing.
 
 #include <cstddef>
 #include <cstdint>
@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <occmap/control_status_t.hpp>
+#include <occmap/lighting_status_t.hpp>
 #include <occmap/status_t.hpp>
 
 #include "core/map_frame.h"
@@ -57,6 +58,12 @@ struct CameraReport {
   std::string last_error;  // its capacity reserved once, so that filling it allocates nothing
   int threshold = 0;
   std::int64_t background_utime = 0;  // 0: the config's image
+  // The light's model (lighting_status_t).
+  bool lighting_adapt = false;
+  double lighting_gain = 1.0;
+  double lighting_agreement = 1.0;
+  bool lighting_explained = true;
+  std::uint64_t unexplained_frames = 0;
 };
 
 struct DaemonReport {
@@ -72,6 +79,9 @@ struct DaemonReport {
   ControlCounts control;
   std::vector<CameraReport> cameras;
 };
+
+// Where lighting_status_t goes: the status channel's name + "_LIGHTING".
+std::string lightingStatusChannel(const std::string& status_channel);
 
 class StatusPublisher {
  public:
@@ -96,10 +106,12 @@ class StatusPublisher {
 
   std::string status_channel_;
   std::string control_status_channel_;
+  std::string lighting_status_channel_;
   std::vector<Sample> samples_;
   std::size_t oldest_ = 0;
   occmap::status_t status_{};
   occmap::control_status_t control_status_{};
+  occmap::lighting_status_t lighting_status_{};
   std::vector<std::uint8_t> buffer_;
   std::uint64_t errors_ = 0;
 };

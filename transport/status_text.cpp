@@ -148,7 +148,8 @@ std::string cameraStateName(int state) {
   }
 }
 
-std::string formatStatusTable(const occmap::status_t& s, const occmap::control_status_t* control) {
+std::string formatStatusTable(const occmap::status_t& s, const occmap::control_status_t* control,
+                              const occmap::lighting_status_t* lighting) {
   std::string text =
       "occmapd on " + (s.hostname.empty() ? std::string("?") : terminalText(s.hostname));
   if (!s.config_file.empty()) text += " (config " + terminalText(s.config_file) + ")";
@@ -187,6 +188,33 @@ std::string formatStatusTable(const occmap::status_t& s, const occmap::control_s
       text += names[k] + ": last error: " + terminalText(c.last_error) + "\n";
   }
   if (control != nullptr) text += formatControlStatusTable(*control);
+  if (lighting != nullptr) text += formatLightingStatusTable(*lighting);
+  return text;
+}
+
+std::string formatLightingStatusTable(const occmap::lighting_status_t& l) {
+  // The arrays are as long as num_cameras in any message that decodes; a hand-made one may not be.
+  const std::size_t cameras =
+      std::min({l.camera_name.size(), l.adapt.size(), l.gain.size(), l.agreement.size(),
+                l.explained.size(), l.unexplained_frames.size()});
+  std::string text;
+  for (std::size_t k = 0; k < cameras; ++k) {
+    if (l.adapt[k] == 0) continue;
+    const std::string name = terminalText(l.camera_name[k]);
+    if (l.explained[k] != 0) {
+      text += format("%s: light %.2f x the background's (%.0f %% of pixels agree)", name.c_str(),
+                     l.gain[k], 100 * l.agreement[k]);
+    } else {
+      text += format(
+          "%s: DEGRADED, no change of light explains its view (%.0f %% of pixels "
+          "agree): bumped, covered, lights out or crowded; its cells are unseen",
+          name.c_str(), 100 * l.agreement[k]);
+    }
+    if (l.unexplained_frames[k] > 0) {
+      text += format("; %" PRId64 " frames left out so far", l.unexplained_frames[k]);
+    }
+    text += "\n";
+  }
   return text;
 }
 
@@ -211,7 +239,8 @@ std::string formatControlStatusTable(const occmap::control_status_t& c) {
   return text;
 }
 
-std::string formatStatusJson(const occmap::status_t& s, const occmap::control_status_t* control) {
+std::string formatStatusJson(const occmap::status_t& s, const occmap::control_status_t* control,
+                             const occmap::lighting_status_t* lighting) {
   // ordered_json: the keys in the order of status_t's fields, as a reader of the LCM type expects.
   nlohmann::ordered_json j = {
       {"utime", s.utime},
@@ -260,6 +289,17 @@ std::string formatStatusJson(const occmap::status_t& s, const occmap::control_st
     j["camera_name"] = c.camera_name;
     j["camera_threshold"] = c.camera_threshold;
     j["camera_background_utime"] = c.camera_background_utime;
+  }
+  if (lighting != nullptr) {
+    const occmap::lighting_status_t& l = *lighting;
+    j["lighting_camera_name"] = l.camera_name;
+    nlohmann::ordered_json& adapt = j["lighting_adapt"] = nlohmann::ordered_json::array();
+    for (const std::int8_t on : l.adapt) adapt.push_back(on != 0);
+    j["lighting_gain"] = l.gain;
+    j["lighting_agreement"] = l.agreement;
+    nlohmann::ordered_json& explained = j["lighting_explained"] = nlohmann::ordered_json::array();
+    for (const std::int8_t yes : l.explained) explained.push_back(yes != 0);
+    j["lighting_unexplained_frames"] = l.unexplained_frames;
   }
   // The texts are anyone's on the network: bytes that are not UTF-8 become U+FFFD (rather than an
   // exception), and ensure_ascii writes every character outside printable ASCII as \uXXXX, so that

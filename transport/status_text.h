@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include <occmap/control_status_t.hpp>
+#include <occmap/lighting_status_t.hpp>
 #include <occmap/status_t.hpp>
 
 namespace occmap {
@@ -17,9 +18,16 @@ namespace occmap {
 // A few lines on the daemon (state, uptime, maps published, publish errors, maps/s, fusion p50 and
 // p99), then a table with one row per camera: name, state, frames in, dropped, fps, and the age of
 // its last capture at the time of the status. With `control` (the control_status_t published with
-// it), then formatControlStatusTable(*control). Ends with a newline.
+// it), then formatControlStatusTable(*control); with `lighting`, formatLightingStatusTable. Ends
+// with a newline.
 std::string formatStatusTable(const occmap::status_t& status,
-                              const occmap::control_status_t* control = nullptr);
+                              const occmap::control_status_t* control = nullptr,
+                              const occmap::lighting_status_t* lighting = nullptr);
+
+// Each camera's light (docs/lighting.md), a line per camera: the gain against the background's
+// light and the share of pixels that agreed, or why it is degraded; nothing for cameras whose model
+// is off. Ends with a newline, or is empty.
+std::string formatLightingStatusTable(const occmap::lighting_status_t& lighting);
 
 // What became of control requests, as lines for the status table: one with the six counters and,
 // when control is enabled, one per camera with its threshold and background. Ends with a newline.
@@ -29,9 +37,12 @@ std::string formatControlStatusTable(const occmap::control_status_t& control);
 // its order, states also by name ("state_name"), cameras as an array of objects; numbers that are
 // not finite as null. With `control`, its fields follow
 // ("control_enabled", the six counters as "control_disabled" ... "control_accepted", and the
-// arrays "camera_name", "camera_threshold", "camera_background_utime").
+// arrays "camera_name", "camera_threshold", "camera_background_utime"). With `lighting`, its
+// arrays as "lighting_adapt", "lighting_gain", "lighting_agreement", "lighting_explained" and
+// "lighting_unexplained_frames", in the order of its camera names ("lighting_camera_name").
 std::string formatStatusJson(const occmap::status_t& status,
-                             const occmap::control_status_t* control = nullptr);
+                             const occmap::control_status_t* control = nullptr,
+                             const occmap::lighting_status_t* lighting = nullptr);
 
 // A text from the network (a host or camera name, an error) as it may be printed on a terminal:
 // control characters and bytes that are not UTF-8 become '?', so an escape sequence shows as text.
