@@ -49,6 +49,7 @@ bool fuzzStatus(Input input);             // status: status_t, read by occmap st
 bool fuzzControlRequest(Input input);     // control_request: control_request_t, read by occmapd
 bool fuzzControlStatus(Input input);      // control_status: control_status_t, read by occmap status
 bool fuzzControlReply(Input input);       // control_reply: control_reply_t, read by occmap control
+bool fuzzLightingStatus(Input input);  // lighting_status: lighting_status_t, read by occmap status
 
 // The key the control_request seeds are signed with (fuzz_make_seeds): bytes 0, 1, ..., 31. Not
 // a secret: it exists so that fuzzing starts from requests whose mac holds.
@@ -77,6 +78,7 @@ inline constexpr Target kTargets[] = {
     {"control_request", fuzzControlRequest},
     {"control_status", fuzzControlStatus},
     {"control_reply", fuzzControlReply},
+    {"lighting_status", fuzzLightingStatus},
 };
 
 }  // namespace occmap::fuzz

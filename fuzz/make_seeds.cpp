@@ -13,6 +13,7 @@
 #include <occmap/control_reply_t.hpp>
 #include <occmap/control_request_t.hpp>
 #include <occmap/control_status_t.hpp>
+#include <occmap/lighting_status_t.hpp>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 
@@ -150,6 +151,30 @@ int main(int argc, char** argv) {
   control_status.camera_background_utime.clear();
   control_status.num_cameras = 0;
   writeMessage(corpus / "control_status" / "answer-control-off-no-cameras.bin", control_status);
+
+  // The lighting status published with the periodic status: one camera in a dimmer light, one
+  // degraded, one with the model off.
+  occmap::lighting_status_t lighting{};
+  lighting.utime = status.utime;
+  lighting.request_id = -1;
+  lighting.hostname = status.hostname;
+  lighting.camera_name = {"c0", "c1", "c2"};
+  lighting.adapt = {1, 1, 0};
+  lighting.gain = {0.62, 1.0, 1.0};
+  lighting.agreement = {0.93, 0.12, 1.0};
+  lighting.explained = {1, 0, 1};
+  lighting.unexplained_frames = {0, 450, 0};
+  lighting.num_cameras = static_cast<std::int16_t>(lighting.camera_name.size());
+  writeMessage(corpus / "lighting_status" / "periodic-3-cameras.bin", lighting);
+  lighting.request_id = 77;
+  lighting.camera_name.clear();
+  lighting.adapt.clear();
+  lighting.gain.clear();
+  lighting.agreement.clear();
+  lighting.explained.clear();
+  lighting.unexplained_frames.clear();
+  lighting.num_cameras = 0;
+  writeMessage(corpus / "lighting_status" / "answer-no-cameras.bin", lighting);
 
   // Signed with the control target's key (fuzz/fuzz_target.h), so that a seed goes all the way.
   occmap::control_request_t control{};
