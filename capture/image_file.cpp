@@ -180,8 +180,12 @@ std::optional<Image> readGreyImage(const std::filesystem::path& file, std::strin
 }
 
 bool writeGreyPng(const std::filesystem::path& file, const Image& image, std::string& error) {
-  const cv::Mat mat(image.height(), image.width(), CV_8UC1,
-                    const_cast<std::uint8_t*>(image.data()));
+  return writeGreyPng(file, image.view(), error);
+}
+
+bool writeGreyPng(const std::filesystem::path& file, ImageView image, std::string& error) {
+  const cv::Mat mat(image.height, image.width, CV_8UC1, const_cast<std::uint8_t*>(image.data),
+                    static_cast<std::size_t>(image.stride));
   bool written = false;
   try {
     written = cv::imwrite(file.string(), mat);

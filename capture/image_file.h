@@ -35,5 +35,7 @@ std::optional<Image> readGreyImage(const std::filesystem::path& file, std::strin
 
 // Writes an 8-bit grey PNG; false with `error` set when the file cannot be written.
 bool writeGreyPng(const std::filesystem::path& file, const Image& image, std::string& error);
+// The same for pixels the caller does not own (a source's frame), written where they lie.
+bool writeGreyPng(const std::filesystem::path& file, ImageView image, std::string& error);
 
 }  // namespace occmap

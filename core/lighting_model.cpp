@@ -139,6 +139,7 @@ ImageView LightingModel::correct(ImageView live) {
   }
   estimateGain(live);
   updateInverse();
+  ++frames_;
   // live / gain, rounded, at most 255: in 16.16 fixed point, which the compiler puts in vectors
   // (a byte table lookup per pixel it cannot).
   // Locals, not members, in the loops: a byte store may alias any member, which the compiler
@@ -148,7 +149,6 @@ ImageView LightingModel::correct(ImageView live) {
   // to 255): the frame is its own corrected self, and nothing is clipped.
   if (std::abs(inverse - 65536) * 255 < 32768) {
     capped_in_use_ = false;
-    ++frames_;
     return live;
   }
   const int width = width_;
@@ -169,7 +169,6 @@ ImageView LightingModel::correct(ImageView live) {
     std::uint8_t* out = capped_.data();
     for (std::size_t i = 0; i < pixels; ++i) out[i] = std::min(in[i], cap);
   }
-  ++frames_;
   return corrected_.view();
 }
 

@@ -266,7 +266,9 @@ void Pipeline::captureLoop(std::size_t k) {
       camera.lighting_agreement.store(model->agreement(), std::memory_order_relaxed);
     }
     if (!slot.explained) camera.unexplained_frames.fetch_add(1, std::memory_order_relaxed);
-    if (slot.explained == camera.unexplained) noteLighting(k, slot.explained);
+    if (slot.explained == camera.unexplained.load(std::memory_order_relaxed)) {
+      noteLighting(k, slot.explained);
+    }
     slot.sequence = frame.sequence;
     slot.capture_time_us = frame.capture_time_us;
     slot.arrival_ns = now;
@@ -282,8 +284,7 @@ void Pipeline::captureLoop(std::size_t k) {
 // or back. Said once each way; the frames in between do not count (fuse()).
 void Pipeline::noteLighting(std::size_t k, bool explained) {
   Camera& camera = *cameras_[k];
-  camera.unexplained = !explained;
-  camera.unexplained_now.store(!explained, std::memory_order_relaxed);
+  camera.unexplained.store(!explained, std::memory_order_relaxed);
   std::uint64_t suppressed = 0;
   if (!camera.lighting_notes.allow(suppressed)) return;  // a view on the edge flips often
   const LightingModel* model = camera.changed_pixels.lighting();
@@ -473,7 +474,7 @@ void Pipeline::fillReport(std::int64_t now) {
     c.lighting_adapt = prepared_.rig.cameras()[k].lighting.adapt;
     c.lighting_gain = camera.lighting_gain.load(std::memory_order_relaxed);
     c.lighting_agreement = camera.lighting_agreement.load(std::memory_order_relaxed);
-    c.lighting_explained = !camera.unexplained_now.load(std::memory_order_relaxed);
+    c.lighting_explained = !camera.unexplained.load(std::memory_order_relaxed);
     c.unexplained_frames = camera.unexplained_frames.load(std::memory_order_relaxed);
   }
 }

@@ -128,9 +128,9 @@ class Pipeline {
     CameraHealth health;
     CameraControl control;         // threshold and background as control requests change them
     ChangedPixels changed_pixels;  // capture thread only: difference and the light's model
-    bool unexplained = false;      // capture thread only: the last frame's light was not explained
-    // The same and the model's figures, for the status (lighting_status_t).
-    std::atomic<bool> unexplained_now{false};
+    // The last frame's light was not explained (written by the capture thread), and the model's
+    // figures, for the status (lighting_status_t).
+    std::atomic<bool> unexplained{false};
     std::atomic<double> lighting_gain{1.0};
     std::atomic<double> lighting_agreement{1.0};
     std::atomic<std::uint64_t> unexplained_frames{0};

@@ -16,6 +16,7 @@
 #include "core/carve_table.h"
 #include "core/reference_fusion.h"
 #include "sim_reference.h"
+#include "sim_room_config.h"
 #include "tsai_xml.h"
 
 namespace occmap {
@@ -336,10 +337,8 @@ TEST(OccmapFuse, SimulatedRoomIsScoredAgainstItsGroundTruth) {
 // most of the floor reads occupied. Every object is found either way.
 TEST(OccmapFuse, TheLightsModelKeepsTheFloorFreeWhileTheLightChanges) {
   TemporaryFolder folder;
-  std::string text = readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml");
-  for (std::size_t at = 0; (at = text.find("sim://room/", at)) != std::string::npos;) {
-    text.replace(at, 11, "sim://room-light/");
-  }
+  const std::string text =
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-light");
   const std::string fusion = "fusion:\n";
   ASSERT_NE(text.find(fusion), std::string::npos) << "examples/sim-room.yaml changed";
   auto seenFree = [&](const std::string& config, const std::string& name, int frames) {
@@ -428,10 +427,8 @@ TEST(OccmapFuse, SimulatedRoomMapsAreTheReferenceFusionOfTheirFrames) {
 // included), so a recording replays as it was.
 TEST(OccmapRecord, AReplayOfTheRecordingMakesTheSameMapsAsTheCameras) {
   TemporaryFolder folder;
-  std::string text = readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml");
-  for (std::size_t at = 0; (at = text.find("sim://room/", at)) != std::string::npos;) {
-    text.replace(at, 11, "sim://room-light/");
-  }
+  const std::string text =
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-light");
   writeText(folder / "room.yaml", text);
   const auto recording = folder / "recording";
   auto result = runCommand({kOccmap, "record", "--config", (folder / "room.yaml").string(), "--out",

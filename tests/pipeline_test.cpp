@@ -122,10 +122,8 @@ TEST_P(PipelineAtHeight, MapsArriveInOrderAndEqualTheReferenceFusionOfTheirFrame
 // (core/changed_pixels.h, as `occmap fuse` does). Live equals off-line, and the floor stays free.
 TEST(Pipeline, UnderChangingLightEachMapIsTheOffLineReplayOfItsFrames) {
   TemporaryFolder folder;
-  std::string text = testing::simRoomConfig("memq://", "", "0.3");
-  for (std::size_t at = 0; (at = text.find("sim://room/", at)) != std::string::npos;) {
-    text.replace(at, 11, "sim://room-light/");
-  }
+  const std::string text =
+      testing::inScene(testing::simRoomConfig("memq://", "", "0.3"), "room-light");
   const Config config = loadConfig(folder.write("room-light.yaml", text));
   ASSERT_TRUE(config.cameras[0].effectiveLighting(config.fusion).adapt);
   MemoryNetwork network;

@@ -24,4 +24,15 @@ inline std::string simRoomConfig(const std::string& lcm_url = "memq://",
          "  - {name: c3, source: \"sim://room/c3\"}\n";
 }
 
+// A config's simulated cameras moved to another built-in scene of the same room (sim://room/cK ->
+// sim://<scene>/cK), such as "room-light".
+inline std::string inScene(std::string config, const std::string& scene) {
+  const std::string room = "sim://room/";
+  for (std::size_t at = 0; (at = config.find(room, at)) != std::string::npos;) {
+    config.replace(at, room.size(), "sim://" + scene + "/");
+    at += scene.size() + 7;
+  }
+  return config;
+}
+
 }  // namespace occmap::testing

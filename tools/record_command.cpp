@@ -58,11 +58,7 @@ void record(RigCamera& camera, const fs::path& folder, std::uint64_t frames,
     const std::uint64_t n = recorder.written.load();
     char name[32];
     std::snprintf(name, sizeof name, "%06llu.png", static_cast<unsigned long long>(n));
-    Image copy(frame.image.width, frame.image.height);
-    for (int v = 0; v < copy.height(); ++v) {
-      std::copy_n(frame.image.row(v), copy.width(), copy.row(v));
-    }
-    if (!writeGreyPng(folder / name, copy, recorder.error)) break;
+    if (!writeGreyPng(folder / name, frame.image, recorder.error)) break;
     times << n << ',' << frame.sequence << ',' << frame.capture_time_us << '\n';
     recorder.written.store(n + 1);
   }
@@ -73,7 +69,7 @@ void record(RigCamera& camera, const fs::path& folder, std::uint64_t frames,
 // The replay config's entry for one camera: its frames through files://, its geometry and images
 // as the daemon used them (the simulator's written beside the frames), its settings as effective.
 void emitCamera(YAML::Emitter& yaml, const CameraConfig& entry, const RigCamera& camera,
-                const Config& config, const fs::path& folder, const fs::path& out) {
+                const Config& config, const fs::path& folder) {
   yaml << YAML::BeginMap;
   yaml << YAML::Key << "name" << YAML::Value << entry.name;
   yaml << YAML::Key << "source" << YAML::Value << YAML::DoubleQuoted
@@ -127,7 +123,6 @@ void emitCamera(YAML::Emitter& yaml, const CameraConfig& entry, const RigCamera&
        << YAML::Key << "agreement_grey_levels" << YAML::Value << l.agreement_grey_levels
        << YAML::EndMap;
   yaml << YAML::EndMap;
-  (void)out;
 }
 
 int run(const RecordOptions& o) {
@@ -200,7 +195,7 @@ int run(const RecordOptions& o) {
   yaml << YAML::Key << "max_wait_ms" << YAML::Value << config.fusion.max_wait_ms << YAML::EndMap;
   yaml << YAML::Key << "cameras" << YAML::Value << YAML::BeginSeq;
   for (std::size_t k = 0; k < rig.cameras().size(); ++k) {
-    emitCamera(yaml, config.cameras[k], rig.cameras()[k], config, folders[k], out);
+    emitCamera(yaml, config.cameras[k], rig.cameras()[k], config, folders[k]);
   }
   yaml << YAML::EndSeq << YAML::EndMap;
   std::ofstream replay(out / "replay.yaml");

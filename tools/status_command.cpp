@@ -18,7 +18,6 @@
 #include "transport/control_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/status_message.h"
-#include "transport/status_publisher.h"
 #include "transport/status_text.h"
 
 namespace occmap::tools {
@@ -39,6 +38,43 @@ std::int64_t randomRequestId() {
   const std::uint64_t high = device(), low = device();
   return static_cast<std::int64_t>((high << 32 | low) & 0x7fffffffffffffffull);
 }
+
+// A message occmapd publishes with each status_t (control_status_t, lighting_status_t): the one
+// that goes with our answer has our request id and the answering daemon's hostname. It may come
+// before or after the status, so those with our id are kept (a few: several daemons may answer,
+// strangers may forge), each checked as carefully as the status (status_message.h).
+template <typename Message>
+class Companions {
+ public:
+  using Decode = std::optional<Message> (*)(const std::uint8_t*, std::size_t, std::string*);
+  Companions(std::string channel, std::int64_t request_id, Decode decode)
+      : channel_(std::move(channel)), request_id_(request_id), decode_(decode) {}
+
+  bool subscribe(LcmBus& bus) {
+    return bus.subscribe(
+        channel_, [this](const std::uint8_t* data, std::size_t size, std::int64_t) {
+          std::optional<Message> message = decode_(data, size, nullptr);
+          if (message && message->request_id == request_id_ && kept_.size() < kMaxKept) {
+            kept_.push_back(std::move(*message));
+          }
+        });
+  }
+  const std::string& channel() const { return channel_; }
+  // The one from `hostname`, or nullptr (none yet, or a daemon from before this message).
+  const Message* of(const std::string& hostname) const {
+    for (const Message& message : kept_) {
+      if (message.hostname == hostname) return &message;
+    }
+    return nullptr;
+  }
+
+ private:
+  static constexpr std::size_t kMaxKept = 8;
+  std::string channel_;
+  std::int64_t request_id_;
+  Decode decode_;
+  std::vector<Message> kept_;
+};
 
 int run(const StatusOptions& o) {
   LcmBus bus(o.lcm_url);
@@ -70,52 +106,21 @@ int run(const StatusOptions& o) {
           ++others;  // an answer to someone else's request
         }
       });
-  // The control_status_t published with each status_t (lcmtypes/control_status_t.lcm): ours has
-  // our request id and the answering daemon's hostname. It may come before or after the status,
-  // so those with our id are kept (a few: several daemons may answer, strangers may forge).
-  const std::string control_channel = controlStatusChannel(o.channel);
-  constexpr std::size_t kMaxControlAnswers = 8;
-  std::vector<occmap::control_status_t> control_answers;
-  const bool control_subscribed =
-      bus.subscribe(control_channel, [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
-        // Checked as carefully as the status (status_message.h).
-        std::optional<occmap::control_status_t> control = decodeControlStatus(data, size);
-        if (control && control->request_id == request_id &&
-            control_answers.size() < kMaxControlAnswers) {
-          control_answers.push_back(std::move(*control));
-        }
-      });
-  // The same for the lighting_status_t (lcmtypes/lighting_status_t.lcm).
-  const std::string lighting_channel = lightingStatusChannel(o.channel);
-  std::vector<occmap::lighting_status_t> lighting_answers;
-  const bool lighting_subscribed = bus.subscribe(
-      lighting_channel, [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
-        std::optional<occmap::lighting_status_t> lighting = decodeLightingStatus(data, size);
-        if (lighting && lighting->request_id == request_id &&
-            lighting_answers.size() < kMaxControlAnswers) {
-          lighting_answers.push_back(std::move(*lighting));
-        }
-      });
-  if (!subscribed || !control_subscribed || !lighting_subscribed) {
-    const std::string& channel = !subscribed           ? o.channel
-                                 : !control_subscribed ? control_channel
-                                                       : lighting_channel;
-    std::fprintf(stderr, "occmap status: failed: cannot subscribe to %s at %s\n", channel.c_str(),
-                 o.lcm_url.c_str());
+  Companions<occmap::control_status_t> controls(controlStatusChannel(o.channel), request_id,
+                                                decodeControlStatus);
+  Companions<occmap::lighting_status_t> lightings(lightingStatusChannel(o.channel), request_id,
+                                                  decodeLightingStatus);
+  const std::string* unsubscribed = !subscribed                 ? &o.channel
+                                    : !controls.subscribe(bus)  ? &controls.channel()
+                                    : !lightings.subscribe(bus) ? &lightings.channel()
+                                                                : nullptr;
+  if (unsubscribed != nullptr) {
+    std::fprintf(stderr, "occmap status: failed: cannot subscribe to %s at %s\n",
+                 unsubscribed->c_str(), o.lcm_url.c_str());
     return kExitFailure;
   }
-  const auto controlOfAnswer = [&]() -> const occmap::control_status_t* {
-    for (const occmap::control_status_t& control : control_answers) {
-      if (control.hostname == answer->hostname) return &control;
-    }
-    return nullptr;
-  };
-  const auto lightingOfAnswer = [&]() -> const occmap::lighting_status_t* {
-    for (const occmap::lighting_status_t& lighting : lighting_answers) {
-      if (lighting.hostname == answer->hostname) return &lighting;
-    }
-    return nullptr;
-  };
+  const auto controlOfAnswer = [&] { return controls.of(answer->hostname); };
+  const auto lightingOfAnswer = [&] { return lightings.of(answer->hostname); };
 
   const std::string request_channel = statusRequestChannel(o.channel);
   std::vector<std::uint8_t> buffer;

@@ -41,5 +41,8 @@ class Bus {
 
 // Where status requests go: the status channel's name + "_REQUEST" (lcmtypes/status_request_t.lcm).
 std::string statusRequestChannel(const std::string& status_channel);
+// Where occmapd publishes lighting_status_t, with each status_t: the status channel's name +
+// "_LIGHTING" (OCCMAP_STATUS_LIGHTING by default).
+std::string lightingStatusChannel(const std::string& status_channel);
 
 }  // namespace occmap

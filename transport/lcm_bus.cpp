@@ -10,6 +10,10 @@ std::string statusRequestChannel(const std::string& status_channel) {
   return status_channel + "_REQUEST";
 }
 
+std::string lightingStatusChannel(const std::string& status_channel) {
+  return status_channel + "_LIGHTING";
+}
+
 namespace {
 
 // LCM's C callback. Subscriptions go through LCM's C API rather than lcm::LCM::subscribe: that

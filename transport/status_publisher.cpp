@@ -7,10 +7,6 @@
 
 namespace occmap {
 
-std::string lightingStatusChannel(const std::string& status_channel) {
-  return status_channel + "_LIGHTING";
-}
-
 StatusPublisher::StatusPublisher(std::string status_channel, std::size_t cameras,
                                  std::int64_t now_ns)
     : status_channel_(std::move(status_channel)),

@@ -80,9 +80,6 @@ struct DaemonReport {
   std::vector<CameraReport> cameras;
 };
 
-// Where lighting_status_t goes: the status channel's name + "_LIGHTING".
-std::string lightingStatusChannel(const std::string& status_channel);
-
 class StatusPublisher {
  public:
   // `now_ns` (CLOCK_MONOTONIC) starts the rate window.
