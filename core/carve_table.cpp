@@ -340,7 +340,10 @@ void appendSortedColumn(std::vector<std::uint32_t>& column_pixels,
     for (; at > 0 && p[at - 1] > pixel; --at) p[at] = p[at - 1];
     p[at] = pixel;
   }
-  pixels.insert(pixels.end(), p, std::unique(p, p + n));
+  // One push_back each rather than one insert: the same in a plain build, and under
+  // ThreadSanitizer an insert is an intercepted memmove, which was a fifth of a table's build.
+  const std::uint32_t* const end = std::unique(p, p + n);
+  for (const std::uint32_t* q = p; q != end; ++q) pixels.push_back(*q);
 }
 
 CarveTable buildColumnTableReference(const Camera& camera, const MapGeometry& map,

@@ -141,6 +141,31 @@ TEST(SimulatedRoom, NoiseNeverCrossesTheThresholdAndObjectsAlwaysDo) {
   }
 }
 
+// TruthMaker casts rays only inside each object's shadow; its clear views must be exactly every
+// camera's own ray cast to every cell centre, objects and all.
+TEST(SimulatedRoom, TheTruthsClearViewsAreTheRayCastsToEveryCell) {
+  const sim::TruthMaker truth_maker(rig().views(), rig().map);
+  std::size_t hidden = 0;
+  for (const double t : {3.3, 12.1}) {
+    const auto objects = rig().scene->objectsAt(t);
+    const sim::GroundTruth truth = truth_maker.at(objects);
+    for (int row = 0; row < rig().map.height; ++row) {
+      for (int column = 0; column < rig().map.width; ++column) {
+        const auto cell = static_cast<std::size_t>(rig().map.index(row, column));
+        const Eigen::Vector2d c = rig().map.cellCentre(row, column);
+        for (std::size_t k = 0; k < rig().renderers.size(); ++k) {
+          const sim::Renderer& renderer = *rig().renderers[k];
+          const bool clear = renderer.clearView(Eigen::Vector3d(c.x(), c.y(), 0.0), objects);
+          ASSERT_EQ((truth.clear_view[cell] >> k & 1) != 0, clear)
+              << "t " << t << " camera " << k << " cell " << cell;
+          if (!clear && renderer.clearViewOfStatic(Eigen::Vector3d(c.x(), c.y(), 0.0))) ++hidden;
+        }
+      }
+    }
+  }
+  EXPECT_GT(hidden, 2000u) << "the objects should hide some of the floor from the cameras";
+}
+
 TEST(SimulatedRoom, FloorCarvingAgreesWithTheTruthExceptAtEdges) {
   const std::vector<CarveTable> floor_tables = tables(0.0);
   const sim::TruthMaker truth_maker(rig().views(), rig().map);

@@ -183,7 +183,11 @@ bool Renderer::clearView(const Eigen::Vector3d& point,
 
 TruthMaker::TruthMaker(std::vector<const Renderer*> renderers, const MapGeometry& map)
     : renderers_(std::move(renderers)), map_(map) {
+  // Renderer::clearViewOfStatic for every cell, with each ray tested against only the furniture
+  // whose shadow can hold the cell (as at() does for objects): the same ray tests decide.
   for (const Renderer* renderer : renderers_) {
+    const Camera& camera = renderer->camera();
+    const Eigen::Vector3d centre = camera.centreMetres();
     std::vector<std::uint8_t> clear(map_.cellCount(), 0);
     std::vector<int> pixels(map_.cellCount(), -1);
     for (int row = 0; row < map_.height; ++row) {
@@ -191,9 +195,25 @@ TruthMaker::TruthMaker(std::vector<const Renderer*> renderers, const MapGeometry
         const std::size_t cell = static_cast<std::size_t>(map_.index(row, column));
         const Eigen::Vector2d c = map_.cellCentre(row, column);
         const Eigen::Vector3d point(c.x(), c.y(), 0.0);
-        clear[cell] = renderer->clearViewOfStatic(point) ? 1 : 0;
-        const std::optional<Eigen::Vector2d> stream = renderer->camera().worldToStream(point);
-        if (stream) pixels[cell] = renderer->camera().pixelIndexAt(*stream).value_or(-1);
+        const std::optional<Eigen::Vector2d> stream = camera.worldToStream(point);
+        if (stream) pixels[cell] = camera.pixelIndexAt(*stream).value_or(-1);
+        if (pixels[cell] < 0) continue;
+        // The segment reaches the point (t = 1) on the floor, with no furniture before it.
+        const Scene::Hit room = renderer->scene().castRoom(centre, point - centre);
+        clear[cell] = room.floor && std::abs(room.t - 1.0) < 1e-9 ? 1 : 0;
+      }
+    }
+    for (const Solid& solid : renderer->scene().furniture()) {
+      const CellRange shadow = shadowCells(solid, centre);
+      for (int row = shadow.first_row; row <= shadow.last_row; ++row) {
+        for (int column = shadow.first_column; column <= shadow.last_column; ++column) {
+          const std::size_t cell = static_cast<std::size_t>(map_.index(row, column));
+          if (!clear[cell]) continue;
+          const Eigen::Vector2d c = map_.cellCentre(row, column);
+          const Eigen::Vector3d direction = Eigen::Vector3d(c.x(), c.y(), 0.0) - centre;
+          const double floor_t = renderer->scene().castRoom(centre, direction).t;
+          if (solid.intersect(centre, direction, 1e-9, floor_t)) clear[cell] = 0;
+        }
       }
     }
     static_clear_.push_back(std::move(clear));
@@ -203,6 +223,44 @@ TruthMaker::TruthMaker(std::vector<const Renderer*> renderers, const MapGeometry
 
 int TruthMaker::centrePixel(std::size_t camera, std::size_t cell) const {
   return centre_pixel_[camera][cell];
+}
+
+TruthMaker::CellRange TruthMaker::shadowCells(const Solid& solid,
+                                              const Eigen::Vector3d& centre) const {
+  const CellRange everything{0, map_.height - 1, 0, map_.width - 1};
+  // A camera at or below the top sees the solid's shadow reach the horizon.
+  if (!(centre.z() > solid.height)) return everything;
+  double low_x = std::numeric_limits<double>::infinity();
+  double low_y = low_x;
+  double high_x = -low_x;
+  double high_y = -low_x;
+  for (const double z : {0.0, solid.height}) {
+    // From the centre through a point at height z onto the floor: the point moved away from the
+    // centre by centre.z / (centre.z - z).
+    const double stretch = centre.z() / (centre.z() - z);
+    for (const double sx : {-1.0, 1.0}) {
+      for (const double sy : {-1.0, 1.0}) {
+        const double x = centre.x() + (solid.centre.x() + sx * solid.half_size.x() - centre.x()) *
+                                          stretch;
+        const double y = centre.y() + (solid.centre.y() + sy * solid.half_size.y() - centre.y()) *
+                                          stretch;
+        low_x = std::min(low_x, x);
+        high_x = std::max(high_x, x);
+        low_y = std::min(low_y, y);
+        high_y = std::max(high_y, y);
+      }
+    }
+  }
+  // A cell whose centre lies in the shadow is inside these bounds; one cell more on every side
+  // covers rounding.
+  const double cell = map_.cell_size_m;
+  const auto index = [](double v) {
+    return static_cast<int>(std::clamp(std::floor(v), -1.0e9, 1.0e9));
+  };
+  return CellRange{std::max(0, index((low_y - map_.origin_y_m) / cell) - 1),
+                   std::min(map_.height - 1, index((high_y - map_.origin_y_m) / cell) + 1),
+                   std::max(0, index((low_x - map_.origin_x_m) / cell) - 1),
+                   std::min(map_.width - 1, index((high_x - map_.origin_x_m) / cell) + 1)};
 }
 
 GroundTruth TruthMaker::at(const std::vector<SceneObject>& objects) const {
@@ -239,23 +297,31 @@ GroundTruth TruthMaker::at(const std::vector<SceneObject>& objects) const {
       }
     }
   }
+  // Each camera's clear view: every statically clear cell, less those an object hides. An object
+  // can hide only the floor inside its shadow cast from the camera's centre, which lies within the
+  // bounding rectangle of its bounding box's corners projected onto the floor; only cells there are
+  // tested, exactly as before (the ray cast decides), so the truth is the same, found in a fraction
+  // of the time (five people among 262144 cells).
   for (std::size_t camera = 0; camera < renderers_.size(); ++camera) {
     const Renderer& renderer = *renderers_[camera];
     const Eigen::Vector3d centre = renderer.camera().centreMetres();
-    for (int row = 0; row < map_.height; ++row) {
-      for (int column = 0; column < map_.width; ++column) {
-        const std::size_t cell = static_cast<std::size_t>(map_.index(row, column));
-        if (!static_clear_[camera][cell]) continue;
-        const Eigen::Vector2d c = map_.cellCentre(row, column);
-        const Eigen::Vector3d direction = Eigen::Vector3d(c.x(), c.y(), 0.0) - centre;
-        bool clear = true;
-        for (const SceneObject& object : objects) {
+    const std::uint32_t bit = 1u << camera;
+    const std::vector<std::uint8_t>& static_clear = static_clear_[camera];
+    for (std::size_t cell = 0; cell < static_clear.size(); ++cell) {
+      if (static_clear[cell]) truth.clear_view[cell] |= bit;
+    }
+    for (const SceneObject& object : objects) {
+      const CellRange shadow = shadowCells(object.solid, centre);
+      for (int row = shadow.first_row; row <= shadow.last_row; ++row) {
+        for (int column = shadow.first_column; column <= shadow.last_column; ++column) {
+          const std::size_t cell = static_cast<std::size_t>(map_.index(row, column));
+          if (!(truth.clear_view[cell] & bit)) continue;
+          const Eigen::Vector2d c = map_.cellCentre(row, column);
+          const Eigen::Vector3d direction = Eigen::Vector3d(c.x(), c.y(), 0.0) - centre;
           if (object.solid.intersect(centre, direction, 1e-9, 1.0 - 1e-9)) {
-            clear = false;
-            break;
+            truth.clear_view[cell] &= ~bit;
           }
         }
-        if (clear) truth.clear_view[cell] |= 1u << camera;
       }
     }
   }

@@ -21,6 +21,7 @@ class Renderer {
   Renderer(const Scene& scene, Camera camera, int camera_index);
 
   const Camera& camera() const { return camera_; }
+  const Scene& scene() const { return scene_; }
   // The empty scene without noise: the background image the paper acquires during set-up.
   const Image& background() const { return background_; }
   // 255 where the empty scene shows the floor, 0 elsewhere (the paper's floorspace mask).
@@ -77,6 +78,12 @@ class TruthMaker {
   int centrePixel(std::size_t camera, std::size_t cell) const;
 
  private:
+  struct CellRange {
+    int first_row, last_row, first_column, last_column;
+  };
+  // The cells where `solid` may hide the floor from a camera at `centre`.
+  CellRange shadowCells(const Solid& solid, const Eigen::Vector3d& centre) const;
+
   std::vector<const Renderer*> renderers_;
   MapGeometry map_;
   std::vector<std::vector<std::uint8_t>> static_clear_;  // per camera, per cell
