@@ -240,10 +240,10 @@ TruthMaker::CellRange TruthMaker::shadowCells(const Solid& solid,
     const double stretch = centre.z() / (centre.z() - z);
     for (const double sx : {-1.0, 1.0}) {
       for (const double sy : {-1.0, 1.0}) {
-        const double x = centre.x() + (solid.centre.x() + sx * solid.half_size.x() - centre.x()) *
-                                          stretch;
-        const double y = centre.y() + (solid.centre.y() + sy * solid.half_size.y() - centre.y()) *
-                                          stretch;
+        const double x =
+            centre.x() + (solid.centre.x() + sx * solid.half_size.x() - centre.x()) * stretch;
+        const double y =
+            centre.y() + (solid.centre.y() + sy * solid.half_size.y() - centre.y()) * stretch;
         low_x = std::min(low_x, x);
         high_x = std::max(high_x, x);
         low_y = std::min(low_y, y);
