@@ -38,6 +38,7 @@ class ChangedPixels {
     }
     const ImageView corrected = model_->correct(live);
     kernel.markChangedPixels(k, corrected, model_->background(), threshold, changed);
+    model_->explainLocally(corrected, threshold, changed);
     model_->follow(live, changed);
     return model_->explained();
   }

@@ -64,8 +64,15 @@ void LightingModel::reset(ImageView background) {
   const std::size_t samples = static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep) *
                               static_cast<std::size_t>((height_ + kSampleStep - 1) / kSampleStep);
   samples_.assign(samples, 0);
+  sample_tiles_.assign(samples, 0);
+  disagreeing_.assign(samples, 0);
+  usable_ = 0;
+  agreeing_ = 0;
+  if (settings_.local) local_.emplace(width_, height_);
   gain_ = 1.0;
   agreement_ = 1.0;
+  noise_ = 1.0;
+  locally_explained_ = 0;
   explained_ = true;
   capped_in_use_ = false;
   frames_ = 0;
@@ -89,9 +96,14 @@ void LightingModel::estimateGain(ImageView live) {
                            static_cast<double>(ln[static_cast<std::size_t>(b)]);
       const int bin = std::clamp(static_cast<int>((ratio + kLogRange) * kBinsPerLog), 0, kBins - 1);
       ++histogram_[static_cast<std::size_t>(bin)];
+      sample_tiles_[usable] = static_cast<std::uint32_t>(
+          static_cast<std::size_t>(v / 8) * tilesAcross(width_) + static_cast<std::size_t>(u / 8));
       samples_[usable++] = static_cast<std::uint16_t>(b << 8 | l);
     }
   }
+  usable_ = usable;
+  agreeing_ = 0;
+  disagreeing_count_ = 0;
   if (usable < kFewestSamples) {
     agreement_ = 0.0;
     explained_ = false;
@@ -110,6 +122,7 @@ void LightingModel::estimateGain(ImageView live) {
   // their ratio is the least noisy).
   double sum_lb = 0.0;
   double sum_bb = 0.0;
+  double sum_squared_residual = 0.0;
   std::size_t agreeing = 0;
   // The band widens with a brighter light: the background's rounding and a camera gain's noise
   // grow with it.
@@ -117,15 +130,25 @@ void LightingModel::estimateGain(ImageView live) {
   for (std::size_t s = 0; s < usable; ++s) {
     const double b = samples_[s] >> 8;
     const double l = samples_[s] & 0xFF;
-    if (std::abs(l - median * b) < band) {
+    if (const double residual = l - median * b; std::abs(residual) < band) {
       ++agreeing;
+      sum_squared_residual += residual * residual;
       sum_lb += l * b;
       sum_bb += b * b;
+    } else {
+      disagreeing_[disagreeing_count_++] = sample_tiles_[s];
     }
   }
+  agreeing_ = agreeing;
   agreement_ = static_cast<double>(agreeing) / static_cast<double>(usable);
   explained_ = agreement_ >= settings_.min_agreement && sum_bb > 0.0;
-  if (explained_) gain_ = std::clamp(sum_lb / sum_bb, 0.25, 4.0);
+  // The gain of what agrees, even when too little agrees for the frame to count yet: a light in
+  // part of the view (explainLocally) may explain the rest.
+  if (agreeing >= kFewestSamples && sum_bb > 0.0) {
+    gain_ = std::clamp(sum_lb / sum_bb, 0.25, 4.0);
+    // In the background's light, as the frame is compared.
+    noise_ = std::sqrt(sum_squared_residual / static_cast<double>(agreeing)) / gain_;
+  }
 }
 
 void LightingModel::updateInverse() {
@@ -174,6 +197,22 @@ ImageView LightingModel::correct(ImageView live) {
 
 ImageView LightingModel::background() const {
   return capped_in_use_ ? capped_.view() : reference_.view();
+}
+
+std::size_t LightingModel::explainLocally(ImageView corrected, int threshold,
+                                          std::uint8_t* changed_tiles) {
+  locally_explained_ = 0;
+  if (!local_ || frames_ == 0 || agreeing_ < kFewestSamples) return 0;
+  locally_explained_ = local_->explain(corrected, background(), noise_, threshold, changed_tiles);
+  // The samples that disagreed with the gain but lie where a local light explains the change count
+  // as agreeing: a lamp over a third of the view is light, not a bumped camera.
+  std::size_t explained_here = 0;
+  for (std::size_t s = 0; s < disagreeing_count_; ++s) {
+    explained_here += local_->explainedTile(disagreeing_[s]) ? 1 : 0;
+  }
+  agreement_ = static_cast<double>(agreeing_ + explained_here) / static_cast<double>(usable_);
+  explained_ = agreement_ >= settings_.min_agreement;
+  return locally_explained_;
 }
 
 void LightingModel::follow(ImageView live, const std::uint8_t* changed_tiles) {

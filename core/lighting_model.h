@@ -19,9 +19,11 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "core/image.h"
+#include "core/local_light.h"
 
 namespace occmap {
 
@@ -39,6 +41,9 @@ struct LightingSettings {
   // The agreement band in grey levels at gain 1 (wider in a brighter light), about a pixel's noise
   // plus the model's error; a sample agrees when |live - gain x background| is under it.
   int agreement_grey_levels = 8;
+  // Whether changes of light in part of the view (a lamp, a patch of sun, a shadow) are told apart
+  // from objects by the background's texture (core/local_light.h).
+  bool local = true;
 };
 
 class LightingModel {
@@ -63,11 +68,21 @@ class LightingModel {
   // one band of tile rows a frame, in turn. Nothing moves in a frame the gain did not explain.
   void follow(ImageView live, const std::uint8_t* changed_tiles);
 
+  // Between the two, when settings.local: clears the changed tiles that a light in part of the view
+  // explains (core/local_light.h); `corrected` is what correct() returned. Returns how many.
+  std::size_t explainLocally(ImageView corrected, int threshold, std::uint8_t* changed_tiles);
+
   double gain() const { return gain_; }
   // The share of the usable sampled pixels that agreed with the gain, in the last frame.
   double agreement() const { return agreement_; }
-  // Whether the last frame's change was light (agreement at least min_agreement).
+  // Whether the last frame's change was light (agreement at least min_agreement). After
+  // explainLocally, samples in tiles a local light explains count as agreeing.
   bool explained() const { return explained_; }
+  // The pixels' noise in the background's light (standard deviation, grey levels): the spread of
+  // the samples that agreed with the gain, in the last frame.
+  double noise() const { return noise_; }
+  // Tiles the local light explained in the last frame.
+  std::size_t locallyExplained() const { return locally_explained_; }
 
   // Sampling: every kSampleStep-th pixel of every kSampleStep-th row.
   static constexpr int kSampleStep = 4;
@@ -86,13 +101,21 @@ class LightingModel {
   Image corrected_;                          // the last frame in the background's light
   Image capped_;                             // reference_ capped where the light saturates
   bool capped_in_use_ = false;
-  std::vector<std::uint32_t> histogram_;   // log-ratio bins of the gain estimate
-  std::vector<std::uint16_t> samples_;     // this frame's usable samples: background << 8 | live
+  std::vector<std::uint32_t> histogram_;     // log-ratio bins of the gain estimate
+  std::vector<std::uint16_t> samples_;       // this frame's usable samples: background << 8 | live
+  std::vector<std::uint32_t> sample_tiles_;  // the tile of each
+  std::vector<std::uint32_t> disagreeing_;   // the tiles of the samples that disagreed
+  std::size_t disagreeing_count_ = 0;
+  std::size_t usable_ = 0;
+  std::size_t agreeing_ = 0;
   std::vector<std::uint8_t> quiet_row_;    // follow(): 1 per pixel of a wholly unchanged tile
   std::int32_t inverse_gain_q16_ = 65536;  // 1 / gain in 16.16
   double gain_ = 1.0;
   double agreement_ = 1.0;
+  double noise_ = 1.0;
   bool explained_ = true;
+  std::optional<LocalLight> local_;
+  std::size_t locally_explained_ = 0;
   std::uint64_t frames_ = 0;
 };
 

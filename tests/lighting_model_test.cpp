@@ -74,10 +74,12 @@ Mask difference(ImageView live, ImageView background) {
   return mask;
 }
 
-// One frame through the model as a capture thread runs it: correct, difference, follow.
+// One frame through the model as a capture thread runs it (core/changed_pixels.h): correct,
+// difference, the local light, follow.
 Mask throughModel(LightingModel& model, const Image& live) {
   const ImageView corrected = model.correct(live.view());
   Mask mask = difference(corrected, model.background());
+  model.explainLocally(corrected, kThreshold, mask.tiles.data());
   model.follow(live.view(), mask.tiles.data());
   return mask;
 }

@@ -1,0 +1,74 @@
+#pragma once
+// Light that changes in one part of a camera's view only: a lamp switched on in a corner, a patch
+// of sun, the soft shadow at a person's feet (issue 13, docs/lighting.md). The light's gain
+// (core/lighting_model.h) is one number for the whole view, so such a change is left in the
+// changed-pixel tiles; this step takes out of them what light explains and nothing that stands on
+// the floor.
+//
+// A change of light multiplies the background's grey levels by a gain and keeps its texture; an
+// object hides the texture. So:
+// - A changed 8 x 8 tile whose background has texture (a seam, grain, a pattern) is light when one
+//   gain g maps the background onto the frame within the noise (least squares through the origin)
+//   and every pixel passes the usual test against g x background. The texture must be strong
+//   enough that anything hiding it would leave more than the noise: an object cannot pass.
+// - A changed tile without texture tells light and object apart only by its level. It is light
+//   when every pixel passes the usual test against g x background with the gain g of a textured
+//   tile found as light and reached from it through changed tiles, at most kReach tiles away. The
+//   gain is carried from that tile unchanged, never re-estimated on the way, so a chain of tiles
+//   cannot drift into an object. The reach is short because a flat object touching a lit patch,
+//   as bright as the patch, looks like more of the patch (a white box by a patch of sun, dark
+//   trousers by a shadow): such an object may lose its outer tiles, never its middle.
+// Either way a tile is cleared only if every pixel is unchanged under the threshold against the
+// background in the local light: what a background taken in that light would find is still found.
+// A flat floor with no texture anywhere under a lamp stays changed (it looks like a flat object),
+// until the background is taken again.
+// No I/O, no threads; after construction nothing is allocated.
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/image.h"
+
+namespace occmap {
+
+class LocalLight {
+ public:
+  LocalLight(int width, int height);
+
+  // `frame` and `background` in the same light (the frame corrected by the global gain),
+  // `noise` the pixels' noise (standard deviation, grey levels) in that light, `threshold` the
+  // difference's threshold, `changed_tiles` the frame's changed-pixel tiles (core/fusion_kernel.h's
+  // layout). Clears the tiles that light explains; returns how many.
+  std::size_t explain(ImageView frame, ImageView background, double noise, int threshold,
+                      std::uint8_t* changed_tiles);
+  // Whether the last explain() cleared the tile.
+  bool explainedTile(std::size_t tile) const { return state_[tile] == kExplained; }
+
+  // A tile's residual may be this many times the noise's (per pixel, squared), and its texture
+  // must be this many times the noise's for an object hiding it to show.
+  static constexpr double kResidual = 3.0;
+  static constexpr double kTexture = 6.0;
+  // How far, in tiles, a textured tile's gain reaches through tiles without texture.
+  static constexpr int kReach = 3;
+
+ private:
+  enum State : std::uint8_t { kUnchanged, kChanged, kExplained };
+  struct Seed {
+    std::uint32_t tile;
+    float gain;
+    int steps;  // from the textured tile whose gain this is
+  };
+  // Whether every pixel of the tile passes |frame - gain x background| < threshold.
+  bool unchangedUnder(ImageView frame, ImageView background, std::size_t tile, float gain,
+                      int threshold) const;
+
+  int width_;
+  int height_;
+  std::size_t across_;
+  std::size_t down_;
+  std::vector<std::uint8_t> state_;  // per tile: kUnchanged, kChanged, kExplained
+  std::vector<Seed> queue_;          // tiles found as light, to spread their gain from
+};
+
+}  // namespace occmap

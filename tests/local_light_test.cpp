@@ -1,0 +1,265 @@
+// Light in part of the view (core/local_light.h): a lamp's pool, a sharp patch of sun or shade on a
+// textured floor is seen through, while what stands in it stays changed, frame after frame, and an
+// object is never cleared where a background taken in the light of the moment would find it.
+
+#include "core/local_light.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/fusion_kernel.h"
+#include "core/lighting_model.h"
+
+namespace occmap {
+namespace {
+
+constexpr int kThreshold = 20;
+constexpr int kWidth = 160;
+constexpr int kHeight = 120;
+
+// A floor of wooden-looking planks: boards of 12 to 20 pixels with their own shade, a grain, and
+// darker seams; every seed of the random cases gives another floor.
+Image plankFloor(unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_int_distribution<int> shade(100, 150);
+  std::uniform_int_distribution<int> board(12, 20);
+  std::uniform_real_distribution<double> phase(0.0, 6.28);
+  Image floor(kWidth, kHeight);
+  int top = 0;
+  while (top < kHeight) {
+    const int height = board(random);
+    const int grey = shade(random);
+    const double grain = phase(random);
+    for (int v = top; v < std::min(kHeight, top + height); ++v) {
+      for (int u = 0; u < kWidth; ++u) {
+        const bool seam = v == top;
+        const double value = seam ? grey - 25 : grey + 7 * std::sin(u * 0.45 + grain + v * 0.1);
+        floor.at(u, v) = static_cast<std::uint8_t>(std::lround(value));
+      }
+    }
+    top += height;
+  }
+  return floor;
+}
+
+// A patch of light: inside, every grey level times `gain`, blending to 1 over `soft` pixels at its
+// edge (0: a sharp edge, as sun through a window).
+struct Patch {
+  bool round;
+  double cu, cv, half_u, half_v;  // round: radius half_u
+  double soft;
+  double gain;
+  double weight(int u, int v) const {
+    const double du = std::abs(u + 0.5 - cu);
+    const double dv = std::abs(v + 0.5 - cv);
+    const double inside = round ? half_u - std::hypot(du, dv) : std::min(half_u - du, half_v - dv);
+    if (soft <= 0) return inside >= 0 ? 1.0 : 0.0;
+    return std::clamp(0.5 + inside / soft, 0.0, 1.0);
+  }
+  double light(int u, int v) const { return 1.0 + (gain - 1.0) * weight(u, v); }
+};
+
+double lightAt(const std::vector<Patch>& patches, int u, int v) {
+  double light = 1.0;
+  for (const Patch& patch : patches) light *= patch.light(u, v);
+  return light;
+}
+
+struct Box {
+  int u0, v0, u1, v1;  // [u0, u1) x [v0, v1)
+  int grey;
+  int stripes;  // 0: uniform; else rows alternate between grey and grey + stripes
+  bool contains(int u, int v) const { return u >= u0 && u < u1 && v >= v0 && v < v1; }
+  int at(int v) const { return stripes != 0 && (v / 2) % 2 == 1 ? grey + stripes : grey; }
+};
+
+// The floor in the patches' light with the boxes on it (in their own light: the boxes are not lit),
+// and sensor noise of sigma 2.
+Image frame(const Image& floor, const std::vector<Patch>& patches, const std::vector<Box>& boxes,
+            std::mt19937& random) {
+  std::normal_distribution<double> noise(0.0, 2.0);
+  Image out(kWidth, kHeight);
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      double grey = floor.at(u, v) * lightAt(patches, u, v);
+      for (const Box& box : boxes) {
+        if (box.contains(u, v)) grey = box.at(v);
+      }
+      out.at(u, v) =
+          static_cast<std::uint8_t>(std::clamp(std::round(grey + noise(random)), 0.0, 255.0));
+    }
+  }
+  return out;
+}
+
+struct Tiles {
+  std::vector<std::uint8_t> bytes = std::vector<std::uint8_t>(changedMaskBytes(kWidth, kHeight), 0);
+  bool changed(int u, int v) const {
+    const std::size_t word =
+        static_cast<std::size_t>(v / 8) * tilesAcross(kWidth) + static_cast<std::size_t>(u / 8);
+    const unsigned bit = static_cast<unsigned>((v % 8) * 8 + u % 8);
+    return ((bytes[word * 8 + bit / 8] >> (bit % 8)) & 1u) != 0;
+  }
+  bool tileChanged(int tile_u, int tile_v) const {
+    const std::size_t word =
+        static_cast<std::size_t>(tile_v) * tilesAcross(kWidth) + static_cast<std::size_t>(tile_u);
+    return std::any_of(bytes.begin() + static_cast<long>(word * 8),
+                       bytes.begin() + static_cast<long>(word * 8 + 8),
+                       [](std::uint8_t b) { return b != 0; });
+  }
+};
+
+// One frame as a capture thread runs it (core/changed_pixels.h).
+Tiles throughModel(LightingModel& model, const Image& live) {
+  Tiles tiles;
+  const ImageView corrected = model.correct(live.view());
+  markChangedPixels(corrected, model.background(), kThreshold, tiles.bytes.data());
+  model.explainLocally(corrected, kThreshold, tiles.bytes.data());
+  model.follow(live.view(), tiles.bytes.data());
+  return tiles;
+}
+
+// Whether the tile at (tile_u, tile_v) lies wholly inside the box.
+bool tileInside(const Box& box, int tile_u, int tile_v) {
+  return box.contains(tile_u * 8, tile_v * 8) && box.contains(tile_u * 8 + 7, tile_v * 8 + 7);
+}
+
+// A tile touched by no box and by no sharp patch edge, where the light varies by under 2 % (the
+// soft pools' edges do vary), for the share of the lit floor seen through.
+bool plainLitTile(const std::vector<Patch>& patches, const std::vector<Box>& boxes, int tile_u,
+                  int tile_v) {
+  double low = 10;
+  double high = 0;
+  for (int v = tile_v * 8 - 1; v <= tile_v * 8 + 8; ++v) {
+    for (int u = tile_u * 8 - 1; u <= tile_u * 8 + 8; ++u) {
+      for (const Box& box : boxes) {
+        if (box.contains(u, v)) return false;
+      }
+      low = std::min(low, lightAt(patches, u, v));
+      high = std::max(high, lightAt(patches, u, v));
+    }
+  }
+  return std::abs(low - 1.0) > 0.05 && high - low < 0.02 * high;
+}
+
+// A lamp's soft pool (x 1.6) over part of the floor, a sharp patch of shade (x 0.55) over another,
+// and a box half in the pool: the lit and shaded floor is seen through at once, the box stays
+// changed in every one of 3000 frames (100 s at 30 fps) while the drift learns the light.
+TEST(LocalLight, ALampAndAPatchOfShadeAreSeenThroughAndABoxInThemStaysChanged) {
+  const Image floor = plankFloor(1);
+  const std::vector<Patch> patches = {{true, 110, 60, 34, 0, 16, 1.6},
+                                      {false, 32, 88, 24, 22, 0, 0.55}};
+  const std::vector<Box> boxes = {{64, 32, 96, 64, 60, 0}};
+  std::mt19937 random(3);
+  LightingSettings without_local;
+  without_local.local = false;
+  for (const bool local : {false, true}) {
+    LightingModel model(floor.view(), local ? LightingSettings{} : without_local);
+    long lit_tiles = 0;
+    long lit_unchanged = 0;
+    for (int n = 0; n < (local ? 3000 : 1); ++n) {
+      const Tiles tiles = throughModel(model, frame(floor, patches, boxes, random));
+      for (int tv = 0; tv < kHeight / 8; ++tv) {
+        for (int tu = 0; tu < kWidth / 8; ++tu) {
+          if (tileInside(boxes[0], tu, tv)) {
+            ASSERT_TRUE(tiles.tileChanged(tu, tv))
+                << "frame " << n << ": the box's tile " << tu << ", " << tv << " was cleared";
+          }
+          if (n == 0 && plainLitTile(patches, boxes, tu, tv)) {
+            ++lit_tiles;
+            lit_unchanged += tiles.tileChanged(tu, tv) ? 0 : 1;
+          }
+        }
+      }
+    }
+    const double share = static_cast<double>(lit_unchanged) / static_cast<double>(lit_tiles);
+    std::printf("  %s: %.1f %% of %ld lit or shaded tiles seen through at the first frame\n",
+                local ? "with the local light" : "gain alone", 100 * share, lit_tiles);
+    ASSERT_GT(lit_tiles, 20);
+    if (local) {
+      EXPECT_GE(share, 0.9);
+    } else {
+      EXPECT_LT(share, 0.2) << "the patches should defeat the gain alone, or this tests nothing";
+    }
+  }
+}
+
+// Random floors, lights and boxes, 300 cases: a tile wholly inside a box is never cleared when the
+// box differs from the floor under every light of the scene by more than the threshold (with a
+// margin for the noise): what a background taken in any of those lights would find.
+TEST(LocalLight, NoBoxTileIsClearedThatABackgroundInAnyLightOfTheSceneWouldFind) {
+  std::mt19937 random(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  long checked = 0;
+  long lit_cases = 0;
+  for (int scene = 0; scene < 300; ++scene) {
+    const Image floor = plankFloor(100 + static_cast<unsigned>(scene));
+    std::vector<Patch> patches;
+    const int patch_count = 1 + static_cast<int>(unit(random) * 3);
+    double lowest = 1.0;
+    double highest = 1.0;
+    for (int k = 0; k < patch_count; ++k) {
+      const double gain = 0.4 + 1.6 * unit(random);
+      patches.push_back({unit(random) < 0.5, kWidth * unit(random), kHeight * unit(random),
+                         15 + 35 * unit(random), 15 + 35 * unit(random),
+                         unit(random) < 0.4 ? 0.0 : 20 * unit(random), gain});
+      lowest = std::min(lowest, gain);
+      highest = std::max(highest, gain);
+    }
+    // Overlapping patches multiply.
+    lowest = std::min(lowest, std::pow(lowest, patch_count));
+    highest = std::max(highest, std::pow(highest, patch_count));
+    std::vector<Box> boxes;
+    for (int k = 0; k < 2; ++k) {
+      const int u0 = static_cast<int>(unit(random) * (kWidth - 40));
+      const int v0 = static_cast<int>(unit(random) * (kHeight - 40));
+      const int width = 16 + static_cast<int>(unit(random) * 24);
+      const int height = 16 + static_cast<int>(unit(random) * 24);
+      const int grey = static_cast<int>(unit(random) * 230);
+      const int stripes = unit(random) < 0.3 ? 25 : 0;
+      boxes.push_back({u0, v0, u0 + width, v0 + height, grey, stripes});
+    }
+    LightingModel model(floor.view(), LightingSettings{});
+    const Tiles tiles = throughModel(model, frame(floor, patches, boxes, random));
+    if (model.locallyExplained() > 0) ++lit_cases;
+    for (const Box& box : boxes) {
+      for (int tv = 0; tv < kHeight / 8; ++tv) {
+        for (int tu = 0; tu < kWidth / 8; ++tu) {
+          if (!tileInside(box, tu, tv)) continue;
+          // Found in every light: each pixel outside [lowest x floor - t, highest x floor + t],
+          // in the frame's light (the gain found for the frame divides both).
+          bool found_in_every_light = true;
+          for (int v = tv * 8; v < tv * 8 + 8 && found_in_every_light; ++v) {
+            for (int u = tu * 8; u < tu * 8 + 8; ++u) {
+              const double margin = kThreshold + 10;
+              const double g = model.gain();
+              const double grey = box.at(v) / g;
+              if (grey > lowest / g * floor.at(u, v) - margin &&
+                  grey < highest / g * floor.at(u, v) + margin) {
+                found_in_every_light = false;
+                break;
+              }
+            }
+          }
+          if (!found_in_every_light) continue;
+          ++checked;
+          EXPECT_TRUE(tiles.tileChanged(tu, tv))
+              << "scene " << scene << ": the tile " << tu << ", " << tv << " of a box of grey "
+              << box.grey << " was cleared";
+        }
+      }
+    }
+  }
+  std::printf("  %ld box tiles checked in 300 scenes; the local light cleared tiles in %ld\n",
+              checked, lit_cases);
+  EXPECT_GT(checked, 1000);
+  EXPECT_GT(lit_cases, 200);
+}
+
+}  // namespace
+}  // namespace occmap
