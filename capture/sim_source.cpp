@@ -21,7 +21,13 @@ FrameSource::Status SimSource::read(Frame& frame) {
   scene_->objectsAt(last_time_, objects_);
   if (current_.width() != width() || current_.height() != height())
     current_ = Image(width(), height());
-  renderer_.render(objects_, next_, current_, depth_);
+  scene_->lightPatches(last_time_, patches_);
+  if (patches_.empty()) {
+    renderer_.render(objects_, next_, current_, depth_);
+  } else {
+    renderer_.render(objects_, next_, current_, depth_, &object_pixels_);
+    renderer_.light(patches_, object_pixels_, current_);
+  }
   // The light as the sensor records it: every grey level scaled, clipped at 255.
   if (const double gain = scene_->lightGain(last_time_); gain != 1.0) {
     std::array<std::uint8_t, 256> lit;

@@ -42,6 +42,8 @@ class SimSource final : public FrameSource {
   Image current_;
   std::vector<sim::SceneObject> objects_;  // reused frame to frame
   std::vector<float> depth_;
+  std::vector<sim::LightPatch> patches_;  // the scene's light on the floor, reused frame to frame
+  Image object_pixels_;                   // where objects are seen, for the patches' light
 };
 
 }  // namespace occmap

@@ -34,6 +34,7 @@ struct LightingOverride {
   std::optional<int> drift_frames;
   std::optional<double> min_agreement;
   std::optional<int> agreement_grey_levels;
+  std::optional<bool> local;
   LightingSettings over(LightingSettings settings) const;
 };
 

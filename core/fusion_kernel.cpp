@@ -10,7 +10,6 @@
 namespace occmap {
 namespace {
 
-
 // writeCellStates computes the states as numbers: 2 - seen - free.
 static_assert(static_cast<int>(CellState::kFree) == 0 &&
               static_cast<int>(CellState::kOccupied) == 1 &&

@@ -203,7 +203,10 @@ std::size_t LightingModel::explainLocally(ImageView corrected, int threshold,
                                           std::uint8_t* changed_tiles) {
   locally_explained_ = 0;
   if (!local_ || frames_ == 0 || agreeing_ < kFewestSamples) return 0;
-  locally_explained_ = local_->explain(corrected, background(), noise_, threshold, changed_tiles);
+  // Where the sensor clips, in the background's light.
+  const int saturated = (kSaturated * inverse_gain_q16_ + 32768) >> 16;
+  locally_explained_ =
+      local_->explain(corrected, background(), noise_, threshold, saturated, changed_tiles);
   // The samples that disagreed with the gain but lie where a local light explains the change count
   // as agreeing: a lamp over a third of the view is light, not a bumped camera.
   std::size_t explained_here = 0;

@@ -36,7 +36,7 @@ LocalLight::LocalLight(int width, int height)
 }
 
 bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size_t tile, float gain,
-                                int threshold) const {
+                                int threshold, int saturated) const {
   const int u0 = static_cast<int>(tile % across_) * 8;
   const int v0 = static_cast<int>(tile / across_) * 8;
   const int u1 = std::min(width_, u0 + 8);
@@ -46,7 +46,10 @@ bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size
     const std::uint8_t* l = frame.row(v);
     const std::uint8_t* b = background.row(v);
     for (int u = u0; u < u1; ++u) {
-      if (std::abs(static_cast<float>(l[u]) - gain * static_cast<float>(b[u])) >= limit) {
+      const float expected = gain * static_cast<float>(b[u]);
+      if (l[u] >= saturated) {
+        if (expected + limit <= static_cast<float>(saturated)) return false;
+      } else if (std::abs(static_cast<float>(l[u]) - expected) >= limit) {
         return false;
       }
     }
@@ -55,7 +58,7 @@ bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size
 }
 
 std::size_t LocalLight::explain(ImageView frame, ImageView background, double noise, int threshold,
-                                std::uint8_t* changed_tiles) {
+                                int saturated, std::uint8_t* changed_tiles) {
   const double noise2 = std::max(1.0, noise * noise);
   queue_.clear();
   // The textured tiles that one gain explains: the seeds.
@@ -73,25 +76,31 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, double no
     std::uint32_t sum_bb = 0;
     std::uint32_t sum_lb = 0;
     std::uint32_t sum_ll = 0;
+    std::uint32_t count = 0;
     for (int v = v0; v < v1; ++v) {
       const std::uint8_t* l = frame.row(v);
       const std::uint8_t* b = background.row(v);
       for (int u = u0; u < u1; ++u) {
+        if (l[u] >= saturated) continue;  // clipped: no measure of the gain
+        ++count;
         sum_b += b[u];
         sum_bb += static_cast<std::uint32_t>(b[u]) * b[u];
         sum_lb += static_cast<std::uint32_t>(l[u]) * b[u];
         sum_ll += static_cast<std::uint32_t>(l[u]) * l[u];
       }
     }
-    if (sum_bb == 0) continue;
-    const double n = static_cast<double>((u1 - u0) * (v1 - v0));
+    // At least half of the tile measured.
+    if (sum_bb == 0 || 2 * count < static_cast<std::uint32_t>((u1 - u0) * (v1 - v0))) continue;
+    const double n = count;
     const double gain = static_cast<double>(sum_lb) / sum_bb;
     if (gain < kLowestGain || gain > kHighestGain) continue;
     const double residual = static_cast<double>(sum_ll) - gain * sum_lb;
     const double texture = sum_bb - static_cast<double>(sum_b) * sum_b / n;
     if (gain * gain * texture < kTexture * n * noise2) continue;  // too flat to tell
     if (residual > kResidual * n * noise2) continue;              // not one gain: something else
-    if (!unchangedUnder(frame, background, tile, static_cast<float>(gain), threshold)) continue;
+    if (!unchangedUnder(frame, background, tile, static_cast<float>(gain), threshold, saturated)) {
+      continue;
+    }
     state_[tile] = kExplained;
     queue_.push_back({static_cast<std::uint32_t>(tile), static_cast<float>(gain), 0});
   }
@@ -110,7 +119,7 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, double no
     };
     for (const std::size_t tile : neighbours) {
       if (tile >= state_.size() || state_[tile] != kChanged) continue;
-      if (!unchangedUnder(frame, background, tile, seed.gain, threshold)) continue;
+      if (!unchangedUnder(frame, background, tile, seed.gain, threshold, saturated)) continue;
       state_[tile] = kExplained;
       queue_.push_back({static_cast<std::uint32_t>(tile), seed.gain, seed.steps + 1});
     }

@@ -170,6 +170,7 @@ TEST(Config, DefaultsAreTheDesignsDefaults) {
   EXPECT_EQ(lighting.drift_frames, 256);
   EXPECT_EQ(lighting.min_agreement, 0.7);
   EXPECT_EQ(lighting.agreement_grey_levels, 8);
+  EXPECT_TRUE(lighting.local) << "the local light is on by default";
 }
 
 // fusion.lighting for every camera; a camera's own lighting keys replace those they name.
@@ -182,7 +183,7 @@ TEST(Config, LightingIsSetForAllAndOverriddenPerCamera) {
       "  - {name: c0, source: sim://room/c0}\n"
       "  - {name: c1, source: sim://room/c1, lighting: {adapt: false}}\n"
       "  - {name: c2, source: sim://room/c2, lighting: {drift_frames: 30, "
-      "agreement_grey_levels: 12}}\n",
+      "agreement_grey_levels: 12, local: false}}\n",
       "/etc/occmap/occmap.yaml");
   const LightingSettings c0 = config.cameras[0].effectiveLighting(config.fusion);
   EXPECT_TRUE(c0.adapt);
@@ -197,6 +198,8 @@ TEST(Config, LightingIsSetForAllAndOverriddenPerCamera) {
   EXPECT_EQ(c2.drift_frames, 30);
   EXPECT_EQ(c2.min_agreement, 0.6);
   EXPECT_EQ(c2.agreement_grey_levels, 12);
+  EXPECT_FALSE(c2.local);
+  EXPECT_TRUE(c0.local);
 }
 
 TEST(Config, RelativePathsAreTakenFromTheConfigFilesFolder) {

@@ -370,6 +370,44 @@ TEST(OccmapFuse, TheLightsModelKeepsTheFloorFreeWhileTheLightChanges) {
   EXPECT_LT(fixed, 75.0) << "the light's step should defeat a fixed background";
 }
 
+// Light in parts of the room (sim://room-lamps: a patch of sun crossing the floor, a lamp's pool
+// from 1 s, a shade from 2 s): the local light keeps more of the lit floor free than the gain
+// alone, and every object is still found in every map.
+TEST(OccmapFuse, TheLocalLightKeepsMoreOfTheLitFloorFreeAndFindsEveryObject) {
+  TemporaryFolder folder;
+  const std::string text =
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-lamps");
+  const std::string fusion = "fusion:\n";
+  ASSERT_NE(text.find(fusion), std::string::npos) << "examples/sim-room.yaml changed";
+  constexpr int kFrames = 75;  // 2.5 s: the sun all along, the lamp for 1.5 s, the shade for 0.5 s
+  auto seenFree = [&](const std::string& config, const std::string& name) {
+    writeText(folder / name, config);
+    const auto result =
+        runCommand({kOccmap, "fuse", "--config", (folder / name).string(), "--out",
+                    (folder / (name + "-maps")).string(), "--frames", std::to_string(kFrames)});
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    const std::string found = "objects found " + std::to_string(5 * kFrames) + " of " +
+                              std::to_string(5 * kFrames) + " (100.00 %)";
+    EXPECT_NE(result.out.find(found), std::string::npos) << result.out;
+    EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
+        << result.out;
+    const std::string label = "% of cells a camera sees clearly are free";
+    const std::size_t at = result.out.find(label);
+    EXPECT_NE(at, std::string::npos) << result.out;
+    const std::size_t start = result.out.rfind("; ", at);
+    return at == std::string::npos ? -1.0 : std::atof(result.out.c_str() + start + 2);
+  };
+  const double local = seenFree(text, "local.yaml");
+  std::string gain_text = text;
+  gain_text.insert(gain_text.find(fusion) + fusion.size(), "  lighting: {local: false}\n");
+  const double gain_alone = seenFree(gain_text, "gain.yaml");
+  std::printf(
+      "cells a camera sees clearly that are free: %.2f %% with the local light, %.2f %% with the "
+      "gain alone\n",
+      local, gain_alone);
+  EXPECT_GE(local, gain_alone + 2.0);
+}
+
 // occmap fuse runs the daemon's kernel; its maps must still be the reference fusion of the same
 // frames, cell for cell, in both carving modes. The simulator is deterministic: frame n of
 // sim://room/cK is what SimRoomReference renders for sequence n.

@@ -121,7 +121,7 @@ void emitCamera(YAML::Emitter& yaml, const CameraConfig& entry, const RigCamera&
        << "adapt" << YAML::Value << l.adapt << YAML::Key << "drift_frames" << YAML::Value
        << l.drift_frames << YAML::Key << "min_agreement" << YAML::Value << l.min_agreement
        << YAML::Key << "agreement_grey_levels" << YAML::Value << l.agreement_grey_levels
-       << YAML::EndMap;
+       << YAML::Key << "local" << YAML::Value << l.local << YAML::EndMap;
   yaml << YAML::EndMap;
 }
 

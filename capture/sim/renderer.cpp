@@ -119,7 +119,13 @@ void Renderer::render(const std::vector<SceneObject>& objects, std::uint64_t fra
   const int height = camera_.streamHeight();
   if (out.width() != width || out.height() != height) out = Image(width, height);
   std::copy(background_.data(), background_.data() + directions_.size(), out.data());
-  if (object_pixels) *object_pixels = Image(width, height, 0);
+  if (object_pixels) {
+    if (object_pixels->width() != width || object_pixels->height() != height) {
+      *object_pixels = Image(width, height, 0);
+    } else {
+      std::fill_n(object_pixels->data(), directions_.size(), std::uint8_t{0});
+    }
+  }
   // Nearest object so far, per pixel; reset where this frame's objects may draw.
   if (depth.size() != directions_.size()) depth.resize(directions_.size());
   for (const SceneObject& object : objects) {
@@ -158,6 +164,24 @@ void Renderer::render(const std::vector<SceneObject>& objects, std::uint64_t fra
       const int b = static_cast<int>(((bits >> 8) & 0xff) * 7 >> 8) - 3;
       bits >>= 16;
       pixel[i] = static_cast<std::uint8_t>(std::clamp(int{pixel[i]} + a + b, 0, 255));
+    }
+  }
+}
+
+void Renderer::light(const std::vector<LightPatch>& patches, const Image& object_pixels,
+                     Image& out) const {
+  if (patches.empty()) return;
+  std::uint8_t* pixel = out.data();
+  const std::uint8_t* object = object_pixels.data();
+  for (std::size_t i = 0; i < directions_.size(); ++i) {
+    if (object[i] != 0 || background_depth_[i] <= 0.0f) continue;
+    const Eigen::Vector3d point =
+        centre_ + static_cast<double>(background_depth_[i]) * directions_[i].cast<double>();
+    if (point.z() > 1e-3) continue;  // walls, shelves, ceiling: the patches lie on the floor
+    double gain = 1.0;
+    for (const LightPatch& patch : patches) gain *= patch.at(point.head<2>());
+    if (gain != 1.0) {
+      pixel[i] = static_cast<std::uint8_t>(std::clamp(std::round(pixel[i] * gain), 0.0, 255.0));
     }
   }
 }

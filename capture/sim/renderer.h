@@ -36,6 +36,10 @@ class Renderer {
   void render(const std::vector<SceneObject>& objects, std::uint64_t frame_number, Image& out,
               std::vector<float>& depth, Image* object_pixels = nullptr) const;
 
+  // Scales the floor's pixels in `out` by the patches' light, except where `object_pixels` (from
+  // render()) shows an object.
+  void light(const std::vector<LightPatch>& patches, const Image& object_pixels, Image& out) const;
+
   // Whether the camera has a clear view of the floor point: it projects into the stream's bounds,
   // and neither the room nor any object stands between it and the camera.
   bool clearView(const Eigen::Vector3d& floor_point, const std::vector<SceneObject>& objects) const;

@@ -197,14 +197,10 @@ class RoomScene final : public Scene {
 
 }  // namespace
 
-// The room while its light changes, against backgrounds taken in its first light, in a cycle of
-// four seconds: one at 1, a step down to 0.6 (a cloud, a dimmer), a ramp up to 1.5 over the third
-// (sun coming out), one at 1.5, and a step back to 1. A gain alone: the lamps, sun patches and
-// shadows of issue 13 are for the local part of the model.
+// The room as it is, in a light of its own: the base of the scenes below.
 namespace {
-class RoomLightScene final : public Scene {
+class RoomInItsLight : public Scene {
  public:
-  std::string_view name() const override { return "room-light"; }
   const std::vector<SceneCamera>& cameras() const override { return room_.cameras(); }
   double durationS() const override { return room_.durationS(); }
   using Scene::objectsAt;
@@ -220,6 +216,18 @@ class RoomLightScene final : public Scene {
   double objectShade(const SceneObject& object, const Eigen::Vector3d& point) const override {
     return room_.objectShade(object, point);
   }
+
+ private:
+  RoomScene room_;
+};
+
+// The room while its light changes, against backgrounds taken in its first light, in a cycle of
+// four seconds: one at 1, a step down to 0.6 (a cloud, a dimmer), a ramp up to 1.5 over the third
+// (sun coming out), one at 1.5, and a step back to 1. A gain alone: room-lamps has the light in
+// part of the room.
+class RoomLightScene final : public RoomInItsLight {
+ public:
+  std::string_view name() const override { return "room-light"; }
   double lightGain(double t) const override {
     const double second = std::fmod(t, 4.0);
     if (second < 1.0) return 1.0;
@@ -227,18 +235,31 @@ class RoomLightScene final : public Scene {
     if (second < 3.0) return 0.6 + 0.9 * (second - 2.0);
     return 1.5;
   }
+};
 
- private:
-  RoomScene room_;
+// The room with light in parts of it, against backgrounds taken without: a patch of sun
+// (x 1.8, sharp-edged, 1 x 0.7 m) crossing the floor at 0.25 m/s all the time; a lamp's soft pool
+// (x 1.6, 1 m radius) switched on from 1 s to 11 s; a soft shade (x 0.6, 1.6 x 1.2 m) from 2 s to
+// 16 s.
+class RoomLampsScene final : public RoomInItsLight {
+ public:
+  std::string_view name() const override { return "room-lamps"; }
+  void lightPatches(double t, std::vector<LightPatch>& out) const override {
+    out.clear();
+    out.push_back({{1.5 + 0.25 * t, 4.3}, {0.5, 0.35}, false, 0.0, 1.8});
+    if (t >= 1.0 && t < 11.0) out.push_back({{3.0, 2.2}, {1.0, 1.0}, true, 0.5, 1.6});
+    if (t >= 2.0 && t < 16.0) out.push_back({{6.5, 1.8}, {0.8, 0.6}, false, 0.3, 0.6});
+  }
 };
 }  // namespace
 
 std::unique_ptr<Scene> makeScene(std::string_view name) {
   if (name == "room") return std::make_unique<RoomScene>();
   if (name == "room-light") return std::make_unique<RoomLightScene>();
+  if (name == "room-lamps") return std::make_unique<RoomLampsScene>();
   return nullptr;
 }
 
-std::vector<std::string> sceneNames() { return {"room", "room-light"}; }
+std::vector<std::string> sceneNames() { return {"room", "room-light", "room-lamps"}; }
 
 }  // namespace occmap::sim

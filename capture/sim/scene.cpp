@@ -97,6 +97,16 @@ std::string_view objectKindName(ObjectKind kind) {
   return "object";
 }
 
+double LightPatch::at(const Eigen::Vector2d& p) const {
+  const Eigen::Vector2d d = (p - centre).cwiseAbs();
+  // How far inside the edge (negative outside).
+  const double inside =
+      round ? half_size.x() - d.norm() : std::min(half_size.x() - d.x(), half_size.y() - d.y());
+  const double weight =
+      soft_m <= 0.0 ? (inside >= 0.0 ? 1.0 : 0.0) : std::clamp(0.5 + inside / soft_m, 0.0, 1.0);
+  return 1.0 + (gain - 1.0) * weight;
+}
+
 bool Scene::roomContains(const Eigen::Vector3d& p) const {
   const Eigen::Vector2d size = roomSize();
   return p.x() > 0 && p.y() > 0 && p.z() > 0 && p.x() < size.x() && p.y() < size.y() &&

@@ -42,6 +42,19 @@ struct Solid {
                                double t_min, double t_max) const;
 };
 
+// A patch of light on the floor: inside, every grey level times `gain`, blending to 1 over
+// `soft_m` across its edge (0: sharp, as sun through a window). Round (radius half_size.x) or an
+// axis-aligned rectangle. Where patches overlap their gains multiply.
+struct LightPatch {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  Eigen::Vector2d half_size = Eigen::Vector2d::Zero();
+  bool round = false;
+  double soft_m = 0.0;
+  double gain = 1.0;
+  // The gain at floor point p.
+  double at(const Eigen::Vector2d& p) const;
+};
+
 enum class ObjectKind : std::uint8_t { kPerson, kChair, kRobot };
 std::string_view objectKindName(ObjectKind kind);
 
@@ -94,6 +107,9 @@ class Scene {
   // The light at time t as a gain on every grey level a camera records (daylight, a dimmer, the
   // camera's own exposure): 1 while it is as it was when the backgrounds were taken.
   virtual double lightGain(double /*t*/) const { return 1.0; }
+  // Light on part of the floor at time t (a lamp's pool, sun through a window, shade), on top of
+  // lightGain; objects are not lit by it.
+  virtual void lightPatches(double /*t*/, std::vector<LightPatch>& out) const { out.clear(); }
 
   // The nearest static surface along a ray (t > 1e-9), with its normal; rays from inside the room
   // always hit something (walls and ceiling close it).
