@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <mutex>
 #include <vector>
 
 #include <fcntl.h>
@@ -186,6 +187,12 @@ bool writeGreyPng(const std::filesystem::path& file, const Image& image, std::st
 bool writeGreyPng(const std::filesystem::path& file, ImageView image, std::string& error) {
   const cv::Mat mat(image.height, image.width, CV_8UC1, const_cast<std::uint8_t*>(image.data),
                     static_cast<std::size_t>(image.stride));
+  // One write at a time in the process: OpenCV 4.6's imwrite assigns a string its encoders share,
+  // so two threads writing at once race (ThreadSanitizer caught it in occmap record, one thread per
+  // camera). Encoding a 640 x 480 PNG takes a few milliseconds, so four cameras at 30 fps still
+  // fit.
+  static std::mutex one_writer;
+  const std::lock_guard lock(one_writer);
   bool written = false;
   try {
     written = cv::imwrite(file.string(), mat);

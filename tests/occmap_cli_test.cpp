@@ -331,6 +331,28 @@ TEST(OccmapFuse, SimulatedRoomIsScoredAgainstItsGroundTruth) {
   EXPECT_GT(picture.cols, 512);
 }
 
+// `occmap fuse` of the config `text` (simulated cameras) for `frames` frame sets, written to
+// folder/name: checks that it ran and found every object in every map, and returns the share of the
+// cells a camera sees clearly that are free, in %, as it prints it (-1 when it does not).
+double fuseSeenFree(const std::filesystem::path& folder, const std::string& name,
+                    const std::string& text, int frames) {
+  writeText(folder / name, text);
+  const auto result =
+      runCommand({kOccmap, "fuse", "--config", (folder / name).string(), "--out",
+                  (folder / (name + "-maps")).string(), "--frames", std::to_string(frames)});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  const std::string found = "objects found " + std::to_string(5 * frames) + " of " +
+                            std::to_string(5 * frames) + " (100.00 %)";
+  EXPECT_NE(result.out.find(found), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
+      << result.out;
+  const std::string label = "% of cells a camera sees clearly are free";
+  const std::size_t at = result.out.find(label);
+  EXPECT_NE(at, std::string::npos) << result.out;
+  const std::size_t start = result.out.rfind("; ", at);
+  return at == std::string::npos ? -1.0 : std::atof(result.out.c_str() + start + 2);
+}
+
 // The simulated room while its light steps and ramps (sim://room-light: 1, 0.6, 0.6 -> 1.5, 1.5
 // in four seconds) against backgrounds taken at 1: with the light's model (the default) the map
 // is what it is in constant light; with `lighting: {adapt: false}` (the paper's fixed background)
@@ -341,27 +363,12 @@ TEST(OccmapFuse, TheLightsModelKeepsTheFloorFreeWhileTheLightChanges) {
       testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-light");
   const std::string fusion = "fusion:\n";
   ASSERT_NE(text.find(fusion), std::string::npos) << "examples/sim-room.yaml changed";
-  auto seenFree = [&](const std::string& config, const std::string& name, int frames) {
-    writeText(folder / name, config);
-    const auto result =
-        runCommand({kOccmap, "fuse", "--config", (folder / name).string(), "--out",
-                    (folder / (name + "-maps")).string(), "--frames", std::to_string(frames)});
-    EXPECT_EQ(result.exit_code, 0) << result.err;
-    const std::string found =
-        "objects found " + std::to_string(5 * frames) + " of " + std::to_string(5 * frames);
-    EXPECT_NE(result.out.find(found), std::string::npos) << result.out;
-    const std::string label = "% of cells a camera sees clearly are free";
-    const std::size_t at = result.out.find(label);
-    EXPECT_NE(at, std::string::npos) << result.out;
-    const std::size_t start = result.out.rfind("; ", at);
-    return at == std::string::npos ? -1.0 : std::atof(result.out.c_str() + start + 2);
-  };
   // A whole cycle of the light with the model; without it, its first two seconds (1, then 0.6)
   // are enough to show what a fixed background does.
-  const double adapted = seenFree(text, "adapted.yaml", 120);
+  const double adapted = fuseSeenFree(folder.path(), "adapted.yaml", text, 120);
   std::string fixed_text = text;
   fixed_text.insert(fixed_text.find(fusion) + fusion.size(), "  lighting: {adapt: false}\n");
-  const double fixed = seenFree(fixed_text, "fixed.yaml", 60);
+  const double fixed = fuseSeenFree(folder.path(), "fixed.yaml", fixed_text, 60);
   std::printf(
       "cells a camera sees clearly that are free: %.2f %% with the light's model, %.2f %% "
       "with a fixed background\n",
@@ -380,27 +387,10 @@ TEST(OccmapFuse, TheLocalLightKeepsMoreOfTheLitFloorFreeAndFindsEveryObject) {
   const std::string fusion = "fusion:\n";
   ASSERT_NE(text.find(fusion), std::string::npos) << "examples/sim-room.yaml changed";
   constexpr int kFrames = 75;  // 2.5 s: the sun all along, the lamp for 1.5 s, the shade for 0.5 s
-  auto seenFree = [&](const std::string& config, const std::string& name) {
-    writeText(folder / name, config);
-    const auto result =
-        runCommand({kOccmap, "fuse", "--config", (folder / name).string(), "--out",
-                    (folder / (name + "-maps")).string(), "--frames", std::to_string(kFrames)});
-    EXPECT_EQ(result.exit_code, 0) << result.err;
-    const std::string found = "objects found " + std::to_string(5 * kFrames) + " of " +
-                              std::to_string(5 * kFrames) + " (100.00 %)";
-    EXPECT_NE(result.out.find(found), std::string::npos) << result.out;
-    EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
-        << result.out;
-    const std::string label = "% of cells a camera sees clearly are free";
-    const std::size_t at = result.out.find(label);
-    EXPECT_NE(at, std::string::npos) << result.out;
-    const std::size_t start = result.out.rfind("; ", at);
-    return at == std::string::npos ? -1.0 : std::atof(result.out.c_str() + start + 2);
-  };
-  const double local = seenFree(text, "local.yaml");
+  const double local = fuseSeenFree(folder.path(), "local.yaml", text, kFrames);
   std::string gain_text = text;
   gain_text.insert(gain_text.find(fusion) + fusion.size(), "  lighting: {local: false}\n");
-  const double gain_alone = seenFree(gain_text, "gain.yaml");
+  const double gain_alone = fuseSeenFree(folder.path(), "gain.yaml", gain_text, kFrames);
   std::printf(
       "cells a camera sees clearly that are free: %.2f %% with the local light, %.2f %% with the "
       "gain alone\n",
