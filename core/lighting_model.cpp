@@ -49,10 +49,12 @@ void LightingModel::reset(ImageView background) {
   const std::size_t pixels = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
   reference_q8_.resize(pixels);
   reference_ = Image(width_, height_);
+  captured_ = Image(width_, height_);
   corrected_ = Image(width_, height_);
   capped_ = Image(width_, height_);
   for (int v = 0; v < height_; ++v) {
     std::memcpy(reference_.row(v), background.row(v), static_cast<std::size_t>(width_));
+    std::memcpy(captured_.row(v), background.row(v), static_cast<std::size_t>(width_));
     for (int u = 0; u < width_; ++u) {
       reference_q8_[static_cast<std::size_t>(v) * static_cast<std::size_t>(width_) +
                     static_cast<std::size_t>(u)] =
@@ -205,8 +207,8 @@ std::size_t LightingModel::explainLocally(ImageView corrected, int threshold,
   if (!local_ || frames_ == 0 || agreeing_ < kFewestSamples) return 0;
   // Where the sensor clips, in the background's light.
   const int saturated = (kSaturated * inverse_gain_q16_ + 32768) >> 16;
-  locally_explained_ =
-      local_->explain(corrected, background(), noise_, threshold, saturated, changed_tiles);
+  locally_explained_ = local_->explain(corrected, background(), captured_.view(), noise_, threshold,
+                                       saturated, changed_tiles);
   // The samples that disagreed with the gain but lie where a local light explains the change count
   // as agreeing: a lamp over a third of the view is light, not a bumped camera.
   std::size_t explained_here = 0;

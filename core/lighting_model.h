@@ -98,6 +98,7 @@ class LightingModel {
   int height_ = 0;
   std::vector<std::uint16_t> reference_q8_;  // background x 256: the drift's fine steps
   Image reference_;                          // reference_q8_ rounded to grey levels
+  Image captured_;                           // the background as captured, for explainLocally
   Image corrected_;                          // the last frame in the background's light
   Image capped_;                             // reference_ capped where the light saturates
   bool capped_in_use_ = false;

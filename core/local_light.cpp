@@ -57,14 +57,23 @@ bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size
   return true;
 }
 
-std::size_t LocalLight::explain(ImageView frame, ImageView background, double noise, int threshold,
-                                int saturated, std::uint8_t* changed_tiles) {
+std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView captured,
+                                double noise, int threshold, int saturated,
+                                std::uint8_t* changed_tiles) {
   const double noise2 = std::max(1.0, noise * noise);
   queue_.clear();
   // The textured tiles that one gain explains: the seeds.
   for (std::size_t tile = 0; tile < state_.size(); ++tile) {
     if (!tileChanged(changed_tiles, tile)) {
       state_[tile] = kUnchanged;
+      continue;
+    }
+    // The light as it was when the background was captured, which the drift may have moved away
+    // from (a lamp learnt while it was on and now off again): nothing stands there either.
+    if (!captured.empty() && unchangedUnder(frame, captured, tile, 1.0f, threshold, saturated)) {
+      state_[tile] = kExplained;
+      queue_.push_back(
+          {static_cast<std::uint32_t>(tile), 1.0f, kReach});  // its gain is not this light's
       continue;
     }
     state_[tile] = kChanged;

@@ -20,6 +20,9 @@
 //   trousers by a shadow): such an object may lose its outer tiles, never its middle.
 // Either way a tile is cleared only if every pixel is unchanged under the threshold against the
 // background in the local light: what a background taken in that light would find is still found.
+// And a changed tile that matches the background as it was captured is cleared: the drift may have
+// learnt a light that has gone again (a lamp switched off), and the empty scene as captured holds
+// nothing that stands there.
 // A flat floor with no texture anywhere under a lamp stays changed (it looks like a flat object),
 // until the background is taken again.
 // No I/O, no threads; after construction nothing is allocated.
@@ -41,8 +44,10 @@ class LocalLight {
   // difference's threshold, `saturated` the grey level from which a frame's pixel may be clipped
   // (it says only "at least this bright"), `changed_tiles` the frame's changed-pixel tiles
   // (core/fusion_kernel.h's layout). Clears the tiles that light explains; returns how many.
-  std::size_t explain(ImageView frame, ImageView background, double noise, int threshold,
-                      int saturated, std::uint8_t* changed_tiles);
+  // `captured`, if not empty, is the background as it was captured (before any drift): a changed
+  // tile that matches it, pixel by pixel under the threshold, is explained too.
+  std::size_t explain(ImageView frame, ImageView background, ImageView captured, double noise,
+                      int threshold, int saturated, std::uint8_t* changed_tiles);
   // Whether the last explain() cleared the tile.
   bool explainedTile(std::size_t tile) const { return state_[tile] == kExplained; }
 
@@ -50,9 +55,10 @@ class LocalLight {
   // times what noise alone leaves (n sigma^2: the bound lies some 11 standard deviations of that
   // chi-square sum above its mean, for a lamp's gradient across a tile), and its texture is such
   // that a flat object hiding it (which leaves about gain^2 x the texture) would leave twice that.
-  // Measured on the simulated room (docs/lighting.md): bounds of 1.7 and 2.6 (four standard
-  // deviations, margin 1.5) explained more tiles per frame yet kept fewer of the lit cells free
-  // over 20 s (92.4 % against 95.0 %), so the stricter pair stays.
+  // Measured on sim://room-lamps (docs/lighting.md), the residual is the test that binds: a lamp's
+  // gradient across a tile adds to the noise. A residual bound of 1.7 (four standard deviations)
+  // left a tenth of the seeds; 4 or 6 (with texture twice that) lost more seeds to the texture
+  // rule than they gained.
   static constexpr double kResidual = 3.0;
   static constexpr double kTexture = 6.0;
   // How far, in tiles, a textured tile's gain reaches through tiles without texture.
