@@ -235,6 +235,20 @@ std::size_t threadCount() {
   return threads;
 }
 
+// The threads of this process once those already joined are gone from /proc: a joined thread's
+// entry in /proc/self/task may outlast pthread_join by a moment (the kernel wakes the joiner as
+// the thread exits, before it releases the task), which made one run under ASan see 3 where 2 were
+// left. A thread still running stays, and is counted.
+std::size_t threadCountAfterJoins(std::size_t expected) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+  std::size_t threads = threadCount();
+  while (threads != expected && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    threads = threadCount();
+  }
+  return threads;
+}
+
 // Stopped at a random moment under full load, again and again: every thread it started is gone,
 // and every map fusion made was published and received (none left in the map buffers).
 TEST_P(PipelineAtHeight, ShutdownUnderLoadLeavesNoThreadAndLosesNoFusedMap) {
@@ -261,7 +275,7 @@ TEST_P(PipelineAtHeight, ShutdownUnderLoadLeavesNoThreadAndLosesNoFusedMap) {
       EXPECT_GT(threadCount(), threads_with_listener);
       std::this_thread::sleep_for(std::chrono::milliseconds(100 + random() % 300));
       pipeline.stop();
-      EXPECT_EQ(threadCount(), threads_with_listener)
+      EXPECT_EQ(threadCountAfterJoins(threads_with_listener), threads_with_listener)
           << "trial " << trial << ": a thread outlived stop()";
       listener.stop();
       EXPECT_GT(pipeline.mapsFused(), 0u);
@@ -272,7 +286,7 @@ TEST_P(PipelineAtHeight, ShutdownUnderLoadLeavesNoThreadAndLosesNoFusedMap) {
       EXPECT_EQ(received.load(), pipeline.mapsPublished()) << "trial " << trial;
       rig = pipeline.takePrepared();
     }
-    EXPECT_EQ(threadCount(), threads_before) << "trial " << trial;
+    EXPECT_EQ(threadCountAfterJoins(threads_before), threads_before) << "trial " << trial;
   }
 }
 
