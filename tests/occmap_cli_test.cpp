@@ -353,6 +353,17 @@ double fuseSeenFree(const std::filesystem::path& folder, const std::string& name
   return at == std::string::npos ? -1.0 : std::atof(result.out.c_str() + start + 2);
 }
 
+// The config `text` with `lighting` (a flow map) set for every camera under its fusion key, or ""
+// when the text has no fusion key to put it under.
+std::string withLighting(const std::string& text, const std::string& lighting) {
+  const std::string fusion = "fusion:\n";
+  const std::size_t at = text.find(fusion);
+  if (at == std::string::npos) return "";
+  std::string out = text;
+  out.insert(at + fusion.size(), "  lighting: " + lighting + "\n");
+  return out;
+}
+
 // The simulated room while its light steps and ramps (sim://room-light: 1, 0.6, 0.6 -> 1.5, 1.5
 // in four seconds) against backgrounds taken at 1: with the light's model (the default) the map
 // is what it is in constant light; with `lighting: {adapt: false}` (the paper's fixed background)
@@ -361,13 +372,11 @@ TEST(OccmapFuse, TheLightsModelKeepsTheFloorFreeWhileTheLightChanges) {
   TemporaryFolder folder;
   const std::string text =
       testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-light");
-  const std::string fusion = "fusion:\n";
-  ASSERT_NE(text.find(fusion), std::string::npos) << "examples/sim-room.yaml changed";
+  const std::string fixed_text = withLighting(text, "{adapt: false}");
+  ASSERT_NE(fixed_text, "") << "examples/sim-room.yaml changed: no fusion key";
   // A whole cycle of the light with the model; without it, its first two seconds (1, then 0.6)
   // are enough to show what a fixed background does.
   const double adapted = fuseSeenFree(folder.path(), "adapted.yaml", text, 120);
-  std::string fixed_text = text;
-  fixed_text.insert(fixed_text.find(fusion) + fusion.size(), "  lighting: {adapt: false}\n");
   const double fixed = fuseSeenFree(folder.path(), "fixed.yaml", fixed_text, 60);
   std::printf(
       "cells a camera sees clearly that are free: %.2f %% with the light's model, %.2f %% "
@@ -384,12 +393,10 @@ TEST(OccmapFuse, TheLocalLightKeepsMoreOfTheLitFloorFreeAndFindsEveryObject) {
   TemporaryFolder folder;
   const std::string text =
       testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-lamps");
-  const std::string fusion = "fusion:\n";
-  ASSERT_NE(text.find(fusion), std::string::npos) << "examples/sim-room.yaml changed";
+  const std::string gain_text = withLighting(text, "{local: false}");
+  ASSERT_NE(gain_text, "") << "examples/sim-room.yaml changed: no fusion key";
   constexpr int kFrames = 75;  // 2.5 s: the sun all along, the lamp for 1.5 s, the shade for 0.5 s
   const double local = fuseSeenFree(folder.path(), "local.yaml", text, kFrames);
-  std::string gain_text = text;
-  gain_text.insert(gain_text.find(fusion) + fusion.size(), "  lighting: {local: false}\n");
   const double gain_alone = fuseSeenFree(folder.path(), "gain.yaml", gain_text, kFrames);
   std::printf(
       "cells a camera sees clearly that are free: %.2f %% with the local light, %.2f %% with the "
