@@ -68,6 +68,10 @@ Renderer::Renderer(const Scene& scene, Camera camera, int camera_index)
       background_depth_[i] = static_cast<float>(hit.t);
       background_.at(u, v) = toGrey(scene_.staticShade(centre_ + hit.t * rays[i], hit.normal));
       floor_mask_.at(u, v) = hit.floor ? 255 : 0;
+      // Where light() finds the floor: the point from the depth as stored (a float).
+      const Eigen::Vector3d point =
+          centre_ + static_cast<double>(background_depth_[i]) * directions_[i].cast<double>();
+      if (point.z() <= 1e-3) floor_pixels_.push_back({i, point.head<2>()});
     }
   }
 }
@@ -173,15 +177,19 @@ void Renderer::light(const std::vector<LightPatch>& patches, const Image& object
   if (patches.empty()) return;
   std::uint8_t* pixel = out.data();
   const std::uint8_t* object = object_pixels.data();
-  for (std::size_t i = 0; i < directions_.size(); ++i) {
-    if (object[i] != 0 || background_depth_[i] <= 0.0f) continue;
-    const Eigen::Vector3d point =
-        centre_ + static_cast<double>(background_depth_[i]) * directions_[i].cast<double>();
-    if (point.z() > 1e-3) continue;  // walls, shelves, ceiling: the patches lie on the floor
+  // A patch's gain is exactly 1 beyond its reach: only the pixels within it ask the patch (the
+  // patches' light was half of a sanitized occmap fuse of sim://room-lamps when every pixel asked
+  // every patch).
+  for (const FloorPixel& floor : floor_pixels_) {
+    if (object[floor.index] != 0) continue;
     double gain = 1.0;
-    for (const LightPatch& patch : patches) gain *= patch.at(point.head<2>());
+    for (const LightPatch& patch : patches) {
+      const Eigen::Vector2d d = (floor.point - patch.centre).cwiseAbs();
+      if (d.x() <= patch.reach() && d.y() <= patch.reach()) gain *= patch.at(floor.point);
+    }
     if (gain != 1.0) {
-      pixel[i] = static_cast<std::uint8_t>(std::clamp(std::round(pixel[i] * gain), 0.0, 255.0));
+      pixel[floor.index] =
+          static_cast<std::uint8_t>(std::clamp(std::round(pixel[floor.index] * gain), 0.0, 255.0));
     }
   }
 }

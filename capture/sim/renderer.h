@@ -57,6 +57,12 @@ class Renderer {
   Eigen::Vector3d centre_;
   std::vector<Eigen::Vector3f> directions_;  // per pixel; zero where the lens model has no ray
   std::vector<float> background_depth_;      // ray parameter of the static hit
+  // The pixels that see the floor (where light() puts the patches' light), with the floor point.
+  struct FloorPixel {
+    std::size_t index;
+    Eigen::Vector2d point;
+  };
+  std::vector<FloorPixel> floor_pixels_;
   Image background_;
   Image floor_mask_;
 };

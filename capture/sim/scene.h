@@ -1,5 +1,6 @@
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -53,6 +54,11 @@ struct LightPatch {
   double gain = 1.0;
   // The gain at floor point p.
   double at(const Eigen::Vector2d& p) const;
+  // Half the side of the square around the centre outside which the gain is exactly 1.
+  double reach() const {
+    return std::max(half_size.x(), round ? half_size.x() : half_size.y()) +
+           std::max(0.0, soft_m) / 2;
+  }
 };
 
 enum class ObjectKind : std::uint8_t { kPerson, kChair, kRobot };
