@@ -120,6 +120,62 @@ TEST(SimulatedRoom, TheEmptyViewIsTheNearestStaticSurfaceOfEveryPixel) {
   }
 }
 
+// The light of sim://room-lamps (a sharp patch of sun, a lamp's soft pool, a shade) scales exactly
+// the floor pixels that no object hides, each by the product of every patch's gain at the point its
+// ray meets the floor, as the test finds it by casting the ray itself; every other pixel keeps its
+// grey level. (The renderer asks a patch only within its reach, from floor points it keeps.)
+TEST(SimulatedRoom, ThePatchesOfLightScaleTheFloorWhereTheyLieAndNothingElse) {
+  std::vector<sim::LightPatch> patches;
+  sim::makeScene("room-lamps")->lightPatches(5.0, patches);
+  ASSERT_EQ(patches.size(), 3u) << "room-lamps at 5 s: the sun, the lamp and the shade";
+  const sim::Scene& scene = *rig().scene;
+  const Frames frames = render(5.0, 150);
+  for (std::size_t k = 0; k < frames.live.size(); ++k) {
+    const sim::Renderer& renderer = *rig().renderers[k];
+    const Camera& camera = renderer.camera();
+    const Eigen::Vector3d centre = camera.centreMetres();
+    Image lit = frames.live[k];
+    renderer.light(patches, frames.object_pixels[k], lit);
+    std::size_t scaled = 0, at_sharp_edges = 0;
+    for (int v = 0; v < camera.streamHeight(); ++v) {
+      for (int u = 0; u < camera.streamWidth(); ++u) {
+        const int before = frames.live[k].at(u, v);
+        int expected = before;
+        const std::optional<Ray> ray = camera.streamToRay(Eigen::Vector2d(u, v));
+        if (ray && frames.object_pixels[k].at(u, v) == 0) {
+          const sim::Scene::Hit hit = scene.castStatic(centre, ray->direction);
+          if (hit.floor) {
+            const Eigen::Vector2d point = (centre + hit.t * ray->direction).head<2>();
+            double gain = 1.0;
+            bool sharp_edge = false;
+            for (const sim::LightPatch& patch : patches) {
+              gain *= patch.at(point);
+              // The renderer's floor point is the test's to within a micrometre or so: at a sharp
+              // edge that may fall either way.
+              const Eigen::Vector2d d = (point - patch.centre).cwiseAbs();
+              const double inside =
+                  patch.round ? patch.half_size.x() - d.norm()
+                              : std::min(patch.half_size.x() - d.x(), patch.half_size.y() - d.y());
+              sharp_edge = sharp_edge || (patch.soft_m <= 0.0 && std::abs(inside) < 1e-4);
+            }
+            expected = static_cast<int>(std::clamp(std::round(before * gain), 0.0, 255.0));
+            if (sharp_edge) {
+              ++at_sharp_edges;
+              continue;
+            }
+          }
+        }
+        ASSERT_NEAR(lit.at(u, v), expected, 1) << "camera " << k << " pixel " << u << "," << v;
+        scaled += lit.at(u, v) != before;
+      }
+    }
+    EXPECT_LT(at_sharp_edges, 50u) << "camera " << k;
+    if (k == 0) {
+      EXPECT_GT(scaled, 10000u) << "camera 0 sees the lamp's pool";
+    }
+  }
+}
+
 TEST(SimulatedRoom, NoiseNeverCrossesTheThresholdAndObjectsAlwaysDo) {
   // What the exact tolerance rests on: unchanged pixels differ by less than 20, objects by more.
   const Frames frames = render(6.0, 180);
