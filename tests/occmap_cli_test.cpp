@@ -370,10 +370,10 @@ std::string withLighting(const std::string& text, const std::string& lighting) {
 // most of the floor reads occupied. Every object is found either way.
 TEST(OccmapFuse, TheLightsModelKeepsTheFloorFreeWhileTheLightChanges) {
   TemporaryFolder folder;
-  const std::string text =
-      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-light");
+  const std::string text = testing::inCoarseMap(
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-light"));
   const std::string fixed_text = withLighting(text, "{adapt: false}");
-  ASSERT_NE(fixed_text, "") << "examples/sim-room.yaml changed: no fusion key";
+  ASSERT_NE(fixed_text, "") << "examples/sim-room.yaml changed: not its map, or no fusion key";
   // A whole cycle of the light with the model; without it, its first two seconds (1, then 0.6)
   // are enough to show what a fixed background does.
   const double adapted = fuseSeenFree(folder.path(), "adapted.yaml", text, 120);
@@ -391,10 +391,10 @@ TEST(OccmapFuse, TheLightsModelKeepsTheFloorFreeWhileTheLightChanges) {
 // alone, and every object is still found in every map.
 TEST(OccmapFuse, TheLocalLightKeepsMoreOfTheLitFloorFreeAndFindsEveryObject) {
   TemporaryFolder folder;
-  const std::string text =
-      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-lamps");
+  const std::string text = testing::inCoarseMap(
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-lamps"));
   const std::string gain_text = withLighting(text, "{local: false}");
-  ASSERT_NE(gain_text, "") << "examples/sim-room.yaml changed: no fusion key";
+  ASSERT_NE(gain_text, "") << "examples/sim-room.yaml changed: not its map, or no fusion key";
   constexpr int kFrames = 75;  // 2.5 s: the sun all along, the lamp for 1.5 s, the shade for 0.5 s
   const double local = fuseSeenFree(folder.path(), "local.yaml", text, kFrames);
   const double gain_alone = fuseSeenFree(folder.path(), "gain.yaml", gain_text, kFrames);
@@ -462,8 +462,9 @@ TEST(OccmapFuse, SimulatedRoomMapsAreTheReferenceFusionOfTheirFrames) {
 // included), so a recording replays as it was.
 TEST(OccmapRecord, AReplayOfTheRecordingMakesTheSameMapsAsTheCameras) {
   TemporaryFolder folder;
-  const std::string text =
-      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-light");
+  const std::string text = testing::inCoarseMap(
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-light"));
+  ASSERT_NE(text, "") << "examples/sim-room.yaml changed: not the map inCoarseMap knows";
   writeText(folder / "room.yaml", text);
   const auto recording = folder / "recording";
   auto result = runCommand({kOccmap, "record", "--config", (folder / "room.yaml").string(), "--out",
