@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "core/fusion_kernel.h"
+#include "core/lighting_steps.h"
 
 namespace occmap {
 namespace {
@@ -21,12 +22,31 @@ constexpr int kSaturated = 250;
 // Fewer usable samples than this (lights out, a covered lens): nothing is explained.
 constexpr std::size_t kFewestSamples = 64;
 
-// ln(v + 0.5) for every grey level: the log-ratio of two pixels is a difference of two of these.
-const std::array<float, 256>& logOfGrey() {
-  static const std::array<float, 256> table = [] {
-    std::array<float, 256> t{};
-    for (int v = 0; v < 256; ++v)
-      t[static_cast<std::size_t>(v)] = std::log(static_cast<float>(v) + 0.5f);
+// The log-ratio bin of every pair of grey levels, at [background << 8 | live]: ln(l + 0.5) -
+// ln(b + 0.5) in bins of kBins over [-ln 4, ln 4], or kUnusable for a pair that says nothing of
+// the gain (a background too dark or too bright, a live pixel black or clipped). One look-up per
+// sample instead of two logarithms' difference in double precision, with the same bins.
+constexpr std::uint16_t kUnusable = kBins;
+const std::array<std::uint16_t, 65536>& binOfPair() {
+  static const std::array<std::uint16_t, 65536> table = [] {
+    std::array<double, 256> ln{};
+    for (int v = 0; v < 256; ++v) {
+      // In float as before the table (the bins are those of the float logarithms).
+      ln[static_cast<std::size_t>(v)] = static_cast<double>(std::log(static_cast<float>(v) + 0.5f));
+    }
+    constexpr double kBinsPerLog = kBins / (2 * kLogRange);
+    std::array<std::uint16_t, 65536> t{};
+    for (int b = 0; b < 256; ++b) {
+      for (int l = 0; l < 256; ++l) {
+        std::uint16_t bin = kUnusable;
+        if (b >= kDarkest && b <= kBrightest && l < kSaturated && l >= 2) {
+          const double ratio = ln[static_cast<std::size_t>(l)] - ln[static_cast<std::size_t>(b)];
+          bin = static_cast<std::uint16_t>(
+              std::clamp(static_cast<int>((ratio + kLogRange) * kBinsPerLog), 0, kBins - 1));
+        }
+        t[static_cast<std::size_t>(b << 8 | l)] = bin;
+      }
+    }
     return t;
   }();
   return table;
@@ -82,25 +102,28 @@ void LightingModel::reset(ImageView background) {
 }
 
 void LightingModel::estimateGain(ImageView live) {
-  const auto& ln = logOfGrey();
+  const std::array<std::uint16_t, 65536>& bin_of = binOfPair();
   std::fill(histogram_.begin(), histogram_.end(), 0u);
   std::size_t usable = 0;
   constexpr double kBinsPerLog = kBins / (2 * kLogRange);
-  const int width = width_;  // a local: see correct()
+  // Locals, not members, in the loop: a store may alias any member, which the compiler would then
+  // reload for every sample.
+  const int width = width_;
+  const std::uint32_t across = static_cast<std::uint32_t>(tilesAcross(width_));
+  std::uint32_t* histogram = histogram_.data();
+  std::uint16_t* samples = samples_.data();
+  std::uint32_t* tiles = sample_tiles_.data();
   for (int v = 0; v < height_; v += kSampleStep) {
     const std::uint8_t* background = reference_.row(v);
     const std::uint8_t* frame = live.row(v);
+    const std::uint32_t row_tiles = static_cast<std::uint32_t>(v / 8) * across;
     for (int u = 0; u < width; u += kSampleStep) {
-      const int b = background[u];
-      const int l = frame[u];
-      if (b < kDarkest || b > kBrightest || l >= kSaturated || l < 2) continue;
-      const double ratio = static_cast<double>(ln[static_cast<std::size_t>(l)]) -
-                           static_cast<double>(ln[static_cast<std::size_t>(b)]);
-      const int bin = std::clamp(static_cast<int>((ratio + kLogRange) * kBinsPerLog), 0, kBins - 1);
-      ++histogram_[static_cast<std::size_t>(bin)];
-      sample_tiles_[usable] = static_cast<std::uint32_t>(
-          static_cast<std::size_t>(v / 8) * tilesAcross(width_) + static_cast<std::size_t>(u / 8));
-      samples_[usable++] = static_cast<std::uint16_t>(b << 8 | l);
+      const auto pair = static_cast<std::uint16_t>(background[u] << 8 | frame[u]);
+      const std::uint16_t bin = bin_of[pair];
+      if (bin == kUnusable) continue;
+      ++histogram[bin];
+      tiles[usable] = row_tiles + static_cast<std::uint32_t>(u / 8);
+      samples[usable++] = pair;
     }
   }
   usable_ = usable;
@@ -165,10 +188,7 @@ ImageView LightingModel::correct(ImageView live) {
   estimateGain(live);
   updateInverse();
   ++frames_;
-  // live / gain, rounded, at most 255: in 16.16 fixed point, which the compiler puts in vectors
-  // (a byte table lookup per pixel it cannot).
-  // Locals, not members, in the loops: a byte store may alias any member, which the compiler
-  // would then reload for every pixel (and not vectorize).
+  // live / gain, rounded, at most 255: in 16.16 fixed point (core/lighting_steps.h).
   const std::int32_t inverse = inverse_gain_q16_;
   // In light within 0.2 % of the background's, dividing changes no grey level (255 / gain rounds
   // to 255): the frame is its own corrected self, and nothing is clipped.
@@ -176,13 +196,8 @@ ImageView LightingModel::correct(ImageView live) {
     capped_in_use_ = false;
     return live;
   }
-  const int width = width_;
   for (int v = 0; v < height_; ++v) {
-    const std::uint8_t* in = live.row(v);
-    std::uint8_t* out = corrected_.row(v);
-    for (int u = 0; u < width; ++u) {
-      out[u] = static_cast<std::uint8_t>(std::min(255, (in[u] * inverse + 32768) >> 16));
-    }
+    lighting_steps::inBackgroundsLight(live.row(v), width_, inverse, corrected_.row(v));
   }
   // A pixel at 255 reads `cap` in the background's light: a background above that would have been
   // clipped too, so it is compared as that.
@@ -190,9 +205,7 @@ ImageView LightingModel::correct(ImageView live) {
   capped_in_use_ = cap < 255;
   if (capped_in_use_) {
     const std::size_t pixels = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
-    const std::uint8_t* in = reference_.data();
-    std::uint8_t* out = capped_.data();
-    for (std::size_t i = 0; i < pixels; ++i) out[i] = std::min(in[i], cap);
+    lighting_steps::atMost(reference_.data(), pixels, cap, capped_.data());
   }
   return corrected_.view();
 }
@@ -246,26 +259,14 @@ void LightingModel::follow(ImageView live, const std::uint8_t* changed_tiles) {
       any = any || word == 0;
     }
     if (!any) continue;
-    const int width = width_;  // a local: see correct()
     const int v0 = static_cast<int>(tile_row * 8);
     const int v1 = std::min(height_, v0 + 8);
     for (int v = v0; v < v1; ++v) {
-      const std::uint8_t* frame = live.row(v);
-      std::uint16_t* fine = reference_q8_.data() + static_cast<std::ptrdiff_t>(v) * width;
-      std::uint8_t* grey = reference_.row(v);
-      for (int u = 0; u < width; ++u) {
-        const std::int32_t l = frame[u];
-        const std::int32_t target = std::min(65535, (l * inverse + 128) >> 8);
-        const std::int32_t now = fine[u];
-        const std::int32_t difference = target - now;
-        std::int32_t step = (difference * alpha_q16) >> 16;  // toward -inf: -1 at least below
-        step += (step == 0 && difference > 0) ? 1 : 0;       // and +1 at least above
-        // A clipped pixel says only "at least this bright": nothing to learn from it.
-        const bool learn = quiet[u] != 0 && l < kSaturated;
-        const std::int32_t moved = learn ? now + step : now;
-        fine[u] = static_cast<std::uint16_t>(moved);
-        grey[u] = static_cast<std::uint8_t>(std::min(255, (moved + 128) >> 8));
-      }
+      // A clipped pixel (at kSaturated or above) says only "at least this bright": nothing is
+      // learnt from it.
+      lighting_steps::driftRow(live.row(v), quiet, width_, inverse, alpha_q16, kSaturated,
+                               reference_q8_.data() + static_cast<std::ptrdiff_t>(v) * width_,
+                               reference_.row(v));
     }
   }
 }

@@ -14,9 +14,11 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <hwy/targets.h>
 
 #include "capture/sim/renderer.h"
 #include "core/fusion_kernel.h"
+#include "core/lighting_steps.h"
 
 namespace occmap {
 namespace {
@@ -99,6 +101,56 @@ double shareUnchanged(const Mask& mask, const Image& where) {
 
 // The floor of the empty room under a gain, against a background taken at gain 1: the share of its
 // pixels still unchanged, without the model (today) and with it. The table, per pixel.
+// The model's per-pixel passes (core/lighting_steps.h) give the scalar yardstick's bytes on every
+// SIMD target this CPU runs, for rows of every length (whole vectors and the tail), every gain
+// from a quarter to four, every rate of drift, quiet and clipped pixels mixed.
+TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
+  std::mt19937 random(7);
+  std::uniform_int_distribution<int> grey(0, 255);
+  std::uniform_int_distribution<int> fine_value(0, 65535);
+  std::uniform_int_distribution<int> inverse(16384, 262144);  // gains from 4 to 1/4
+  std::uniform_int_distribution<int> alpha(1, 32768);
+  std::size_t rows = 0;
+  for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+    SCOPED_TRACE(hwy::TargetName(target));
+    hwy::SetSupportedTargetsForTest(target);
+    for (int width = 1; width <= 200; width += 3) {
+      std::vector<std::uint8_t> live(static_cast<std::size_t>(width));
+      std::vector<std::uint8_t> quiet(live.size());
+      std::vector<std::uint16_t> fine(live.size());
+      for (std::size_t u = 0; u < live.size(); ++u) {
+        live[u] = static_cast<std::uint8_t>(grey(random));
+        quiet[u] = static_cast<std::uint8_t>(grey(random) < 160 ? 1 : 0);
+        fine[u] = static_cast<std::uint16_t>(fine_value(random));
+      }
+      const std::int32_t inverse_q16 = inverse(random);
+      const std::int32_t alpha_q16 = alpha(random);
+      std::vector<std::uint8_t> out(live.size()), expected_out(live.size());
+      lighting_steps::inBackgroundsLight(live.data(), width, inverse_q16, out.data());
+      lighting_steps::inBackgroundsLightScalar(live.data(), width, inverse_q16,
+                                               expected_out.data());
+      ASSERT_EQ(out, expected_out) << "width " << width << ", 1/gain " << inverse_q16;
+      const auto cap = static_cast<std::uint8_t>(grey(random));
+      lighting_steps::atMost(live.data(), live.size(), cap, out.data());
+      for (std::size_t u = 0; u < live.size(); ++u) {
+        ASSERT_EQ(out[u], std::min(live[u], cap)) << "width " << width;
+      }
+      std::vector<std::uint16_t> moved = fine, expected_moved = fine;
+      std::vector<std::uint8_t> grey_out(live.size()), expected_grey(live.size());
+      lighting_steps::driftRow(live.data(), quiet.data(), width, inverse_q16, alpha_q16, 250,
+                               moved.data(), grey_out.data());
+      lighting_steps::driftRowScalar(live.data(), quiet.data(), width, inverse_q16, alpha_q16, 250,
+                                     expected_moved.data(), expected_grey.data());
+      ASSERT_EQ(moved, expected_moved) << "width " << width << ", alpha " << alpha_q16;
+      ASSERT_EQ(grey_out, expected_grey) << "width " << width;
+      ASSERT_NE(moved, fine) << "some quiet pixel should have moved";
+      ++rows;
+    }
+  }
+  hwy::SetSupportedTargetsForTest(0);
+  EXPECT_GT(rows, 60u);
+}
+
 TEST(LightingModel, TheEmptyFloorStaysUnchangedUnderAGainFromHalfToDouble) {
   const RoomCamera room;
   const Image& background = room.renderer->background();

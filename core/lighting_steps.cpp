@@ -1,0 +1,140 @@
+// The light's model's per-pixel passes, compiled once per SIMD target by Highway's foreach_target
+// (this file includes itself once per target) and dispatched at run time; the scalar versions at
+// the end are the yardstick, and each SIMD version's tail.
+#include "core/lighting_steps.h"
+
+#include <algorithm>
+#include <cstddef>
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "core/lighting_steps.cpp"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+// foreach_target.h must come first.
+#include "hwy/highway.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace occmap::lighting_steps::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+// 32-bit lanes: the products (a grey level times 1 / gain in 16.16, a fine difference times the
+// drift's rate) need them. Bytes and fine values are widened on load and narrowed on store.
+using WideTag = hn::ScalableTag<std::int32_t>;
+
+void inBackgroundsLightVector(const std::uint8_t* HWY_RESTRICT live, int width,
+                              std::int32_t inverse_q16, std::uint8_t* HWY_RESTRICT out) {
+  const WideTag d;
+  const hn::Rebind<std::uint8_t, WideTag> bytes;
+  const std::size_t n = hn::Lanes(d);
+  const std::size_t pixels = static_cast<std::size_t>(width);
+  const auto inverse = hn::Set(d, inverse_q16);
+  const auto half = hn::Set(d, 32768);
+  const auto brightest = hn::Set(d, 255);
+  std::size_t u = 0;
+  for (; u + n <= pixels; u += n) {
+    const auto l = hn::PromoteTo(d, hn::LoadU(bytes, live + u));
+    const auto scaled = hn::Min(brightest, hn::ShiftRight<16>(hn::Add(hn::Mul(l, inverse), half)));
+    hn::StoreU(hn::DemoteTo(bytes, scaled), bytes, out + u);
+  }
+  inBackgroundsLightScalar(live + u, static_cast<int>(pixels - u), inverse_q16, out + u);
+}
+
+void atMostVector(const std::uint8_t* HWY_RESTRICT in, std::size_t count, std::uint8_t cap,
+                  std::uint8_t* HWY_RESTRICT out) {
+  const hn::ScalableTag<std::uint8_t> d;
+  const std::size_t n = hn::Lanes(d);
+  const auto most = hn::Set(d, cap);
+  std::size_t i = 0;
+  for (; i + n <= count; i += n) hn::StoreU(hn::Min(hn::LoadU(d, in + i), most), d, out + i);
+  for (; i < count; ++i) out[i] = std::min(in[i], cap);
+}
+
+void driftRowVector(const std::uint8_t* HWY_RESTRICT live, const std::uint8_t* HWY_RESTRICT quiet,
+                    int width, std::int32_t inverse_q16, std::int32_t alpha_q16, int saturated,
+                    std::uint16_t* HWY_RESTRICT fine, std::uint8_t* HWY_RESTRICT grey) {
+  const WideTag d;
+  const hn::Rebind<std::uint8_t, WideTag> bytes;
+  const hn::Rebind<std::uint16_t, WideTag> words;
+  const std::size_t n = hn::Lanes(d);
+  const std::size_t pixels = static_cast<std::size_t>(width);
+  const auto inverse = hn::Set(d, inverse_q16);
+  const auto alpha = hn::Set(d, alpha_q16);
+  const auto clipped = hn::Set(d, saturated);
+  const auto half_step = hn::Set(d, 128);
+  const auto finest = hn::Set(d, 65535);
+  const auto brightest = hn::Set(d, 255);
+  const auto zero = hn::Zero(d);
+  const auto one = hn::Set(d, 1);
+  std::size_t u = 0;
+  for (; u + n <= pixels; u += n) {
+    const auto l = hn::PromoteTo(d, hn::LoadU(bytes, live + u));
+    const auto now = hn::PromoteTo(d, hn::LoadU(words, fine + u));
+    const auto target = hn::Min(finest, hn::ShiftRight<8>(hn::Add(hn::Mul(l, inverse), half_step)));
+    const auto difference = hn::Sub(target, now);
+    auto step = hn::ShiftRight<16>(hn::Mul(difference, alpha));  // arithmetic: toward -inf
+    step = hn::Add(step,
+                   hn::IfThenElseZero(hn::And(hn::Eq(step, zero), hn::Gt(difference, zero)), one));
+    const auto is_quiet = hn::Ne(hn::PromoteTo(d, hn::LoadU(bytes, quiet + u)), zero);
+    const auto learn = hn::And(is_quiet, hn::Lt(l, clipped));
+    const auto moved = hn::IfThenElse(learn, hn::Add(now, step), now);
+    hn::StoreU(hn::DemoteTo(words, moved), words, fine + u);
+    hn::StoreU(
+        hn::DemoteTo(bytes, hn::Min(brightest, hn::ShiftRight<8>(hn::Add(moved, half_step)))),
+        bytes, grey + u);
+  }
+  driftRowScalar(live + u, quiet + u, static_cast<int>(pixels - u), inverse_q16, alpha_q16,
+                 saturated, fine + u, grey + u);
+}
+
+}  // namespace occmap::lighting_steps::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace occmap::lighting_steps {
+
+HWY_EXPORT(inBackgroundsLightVector);
+HWY_EXPORT(atMostVector);
+HWY_EXPORT(driftRowVector);
+
+void inBackgroundsLight(const std::uint8_t* live, int width, std::int32_t inverse_q16,
+                        std::uint8_t* out) {
+  HWY_DYNAMIC_DISPATCH(inBackgroundsLightVector)(live, width, inverse_q16, out);
+}
+
+void atMost(const std::uint8_t* in, std::size_t count, std::uint8_t cap, std::uint8_t* out) {
+  HWY_DYNAMIC_DISPATCH(atMostVector)(in, count, cap, out);
+}
+
+void driftRow(const std::uint8_t* live, const std::uint8_t* quiet, int width,
+              std::int32_t inverse_q16, std::int32_t alpha_q16, int saturated, std::uint16_t* fine,
+              std::uint8_t* grey) {
+  HWY_DYNAMIC_DISPATCH(driftRowVector)
+  (live, quiet, width, inverse_q16, alpha_q16, saturated, fine, grey);
+}
+
+void inBackgroundsLightScalar(const std::uint8_t* live, int width, std::int32_t inverse_q16,
+                              std::uint8_t* out) {
+  for (int u = 0; u < width; ++u) {
+    out[u] = static_cast<std::uint8_t>(std::min(255, (live[u] * inverse_q16 + 32768) >> 16));
+  }
+}
+
+void driftRowScalar(const std::uint8_t* live, const std::uint8_t* quiet, int width,
+                    std::int32_t inverse_q16, std::int32_t alpha_q16, int saturated,
+                    std::uint16_t* fine, std::uint8_t* grey) {
+  for (int u = 0; u < width; ++u) {
+    const std::int32_t l = live[u];
+    const std::int32_t target = std::min(65535, (l * inverse_q16 + 128) >> 8);
+    const std::int32_t now = fine[u];
+    const std::int32_t difference = target - now;
+    std::int32_t step = (difference * alpha_q16) >> 16;  // toward -inf: -1 at least below
+    step += (step == 0 && difference > 0) ? 1 : 0;       // and +1 at least above
+    // A clipped pixel says only "at least this bright": nothing to learn from it.
+    const bool learn = quiet[u] != 0 && l < saturated;
+    const std::int32_t moved = learn ? now + step : now;
+    fine[u] = static_cast<std::uint16_t>(moved);
+    grey[u] = static_cast<std::uint8_t>(std::min(255, (moved + 128) >> 8));
+  }
+}
+
+}  // namespace occmap::lighting_steps
+#endif  // HWY_ONCE

@@ -1,0 +1,34 @@
+#pragma once
+// The light's model's per-pixel passes (core/lighting_model.h), each twice: SIMD through Google
+// Highway, dispatched at run time to the best target this CPU has, and plain scalar C++, the
+// yardstick the tests hold every SIMD target to. Both are exact integer arithmetic, so every
+// target gives the same bytes. Internal to core/lighting_model.cpp, and exposed for its tests.
+
+#include <cstddef>
+#include <cstdint>
+
+namespace occmap::lighting_steps {
+
+// One row of a frame put in the background's light: out = min(255, round(live / gain)), with
+// 1 / gain as `inverse_q16` in 16.16 fixed point (at most 2^18).
+void inBackgroundsLight(const std::uint8_t* live, int width, std::int32_t inverse_q16,
+                        std::uint8_t* out);
+void inBackgroundsLightScalar(const std::uint8_t* live, int width, std::int32_t inverse_q16,
+                              std::uint8_t* out);
+
+// count bytes: out = min(in, cap).
+void atMost(const std::uint8_t* in, std::size_t count, std::uint8_t cap, std::uint8_t* out);
+
+// One row of the drift (LightingModel::follow). `fine` is the background x 256. Where quiet[u] is
+// not 0 and live[u] < saturated, fine[u] moves toward live[u] / gain x 256 (`inverse_q16` as
+// above) by `alpha_q16` (16.16, at most 1/2) of the difference, rounded toward minus infinity but
+// at least one fine step up when the target is above; elsewhere it stays. grey[u] becomes fine[u]
+// rounded to grey levels, at most 255, for every pixel.
+void driftRow(const std::uint8_t* live, const std::uint8_t* quiet, int width,
+              std::int32_t inverse_q16, std::int32_t alpha_q16, int saturated, std::uint16_t* fine,
+              std::uint8_t* grey);
+void driftRowScalar(const std::uint8_t* live, const std::uint8_t* quiet, int width,
+                    std::int32_t inverse_q16, std::int32_t alpha_q16, int saturated,
+                    std::uint16_t* fine, std::uint8_t* grey);
+
+}  // namespace occmap::lighting_steps
