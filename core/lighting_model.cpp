@@ -145,25 +145,18 @@ void LightingModel::estimateGain(ImageView live) {
   const double median = std::exp((median_bin + 0.5) / kBinsPerLog - kLogRange);
   // Then the least-squares gain over the samples that agree with it (bright pixels weigh more:
   // their ratio is the least noisy).
-  double sum_lb = 0.0;
-  double sum_bb = 0.0;
-  double sum_squared_residual = 0.0;
-  std::size_t agreeing = 0;
   // The band widens with a brighter light: the background's rounding and a camera gain's noise
   // grow with it.
   const double band = settings_.agreement_grey_levels * std::max(1.0, median);
-  for (std::size_t s = 0; s < usable; ++s) {
-    const double b = samples_[s] >> 8;
-    const double l = samples_[s] & 0xFF;
-    if (const double residual = l - median * b; std::abs(residual) < band) {
-      ++agreeing;
-      sum_squared_residual += residual * residual;
-      sum_lb += l * b;
-      sum_bb += b * b;
-    } else {
-      disagreeing_[disagreeing_count_++] = sample_tiles_[s];
-    }
-  }
+  const lighting_steps::Agreement sums = lighting_steps::agreement(
+      samples_.data(), sample_tiles_.data(), usable, median, band, disagreeing_.data());
+  disagreeing_count_ = sums.disagreeing;
+  const std::size_t agreeing = sums.agreeing;
+  const double sum_lb = sums.sum_lb;
+  const double sum_bb = sums.sum_bb;
+  // The squared residuals about the median's gain, from the exact sums.
+  const double sum_squared_residual =
+      std::max(0.0, sums.sum_ll - 2.0 * median * sum_lb + median * median * sum_bb);
   agreeing_ = agreeing;
   agreement_ = static_cast<double>(agreeing) / static_cast<double>(usable);
   explained_ = agreement_ >= settings_.min_agreement && sum_bb > 0.0;

@@ -4,6 +4,7 @@
 #include "core/lighting_steps.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 
 #undef HWY_TARGET_INCLUDE
@@ -85,6 +86,50 @@ void driftRowVector(const std::uint8_t* HWY_RESTRICT live, const std::uint8_t* H
                  saturated, fine + u, grey + u);
 }
 
+Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples,
+                          const std::uint32_t* HWY_RESTRICT tiles, std::size_t count, double gain,
+                          double band, std::uint32_t* HWY_RESTRICT disagreeing) {
+  const hn::ScalableTag<double> d;
+  const hn::Rebind<std::int32_t, decltype(d)> d32;
+  const hn::Rebind<std::uint16_t, decltype(d)> d16;
+  const std::size_t n = hn::Lanes(d);
+  const auto g = hn::Set(d, gain);
+  const auto limit = hn::Set(d, band);
+  const auto low_byte = hn::Set(d32, 0xFF);
+  // Products and sums of grey levels are integers below 2^53: exact in any order.
+  auto sum_lb = hn::Zero(d);
+  auto sum_bb = hn::Zero(d);
+  auto sum_ll = hn::Zero(d);
+  Agreement out;
+  std::size_t s = 0;
+  for (; s + n <= count; s += n) {
+    const auto pair = hn::PromoteTo(d32, hn::LoadU(d16, samples + s));
+    const auto b = hn::PromoteTo(d, hn::ShiftRight<8>(pair));
+    const auto l = hn::PromoteTo(d, hn::And(pair, low_byte));
+    // The scalar test's very operations (no fused multiply-add): the same lanes agree.
+    const auto agree = hn::Lt(hn::Abs(hn::Sub(l, hn::Mul(g, b))), limit);
+    sum_lb = hn::Add(sum_lb, hn::IfThenElseZero(agree, hn::Mul(l, b)));
+    sum_bb = hn::Add(sum_bb, hn::IfThenElseZero(agree, hn::Mul(b, b)));
+    sum_ll = hn::Add(sum_ll, hn::IfThenElseZero(agree, hn::Mul(l, l)));
+    const std::size_t agreeing = hn::CountTrue(d, agree);
+    out.agreeing += agreeing;
+    if (agreeing == n) continue;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!hn::ExtractLane(hn::VecFromMask(d, agree), i)) {
+        disagreeing[out.disagreeing++] = tiles[s + i];
+      }
+    }
+  }
+  const Agreement tail =
+      agreementScalar(samples + s, tiles + s, count - s, gain, band, disagreeing + out.disagreeing);
+  out.sum_lb = hn::GetLane(hn::SumOfLanes(d, sum_lb)) + tail.sum_lb;
+  out.sum_bb = hn::GetLane(hn::SumOfLanes(d, sum_bb)) + tail.sum_bb;
+  out.sum_ll = hn::GetLane(hn::SumOfLanes(d, sum_ll)) + tail.sum_ll;
+  out.agreeing += tail.agreeing;
+  out.disagreeing += tail.disagreeing;
+  return out;
+}
+
 }  // namespace occmap::lighting_steps::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
@@ -94,6 +139,7 @@ namespace occmap::lighting_steps {
 HWY_EXPORT(inBackgroundsLightVector);
 HWY_EXPORT(atMostVector);
 HWY_EXPORT(driftRowVector);
+HWY_EXPORT(agreementVector);
 
 void inBackgroundsLight(const std::uint8_t* live, int width, std::int32_t inverse_q16,
                         std::uint8_t* out) {
@@ -109,6 +155,29 @@ void driftRow(const std::uint8_t* live, const std::uint8_t* quiet, int width,
               std::uint8_t* grey) {
   HWY_DYNAMIC_DISPATCH(driftRowVector)
   (live, quiet, width, inverse_q16, alpha_q16, saturated, fine, grey);
+}
+
+Agreement agreement(const std::uint16_t* samples, const std::uint32_t* tiles, std::size_t count,
+                    double gain, double band, std::uint32_t* disagreeing) {
+  return HWY_DYNAMIC_DISPATCH(agreementVector)(samples, tiles, count, gain, band, disagreeing);
+}
+
+Agreement agreementScalar(const std::uint16_t* samples, const std::uint32_t* tiles,
+                          std::size_t count, double gain, double band, std::uint32_t* disagreeing) {
+  Agreement out;
+  for (std::size_t s = 0; s < count; ++s) {
+    const double b = samples[s] >> 8;
+    const double l = samples[s] & 0xFF;
+    if (std::abs(l - gain * b) < band) {
+      ++out.agreeing;
+      out.sum_lb += l * b;
+      out.sum_bb += b * b;
+      out.sum_ll += l * l;
+    } else {
+      disagreeing[out.disagreeing++] = tiles[s];
+    }
+  }
+  return out;
 }
 
 void inBackgroundsLightScalar(const std::uint8_t* live, int width, std::int32_t inverse_q16,

@@ -31,4 +31,20 @@ void driftRowScalar(const std::uint8_t* live, const std::uint8_t* quiet, int wid
                     std::int32_t inverse_q16, std::int32_t alpha_q16, int saturated,
                     std::uint16_t* fine, std::uint8_t* grey);
 
+// The gain's agreement (LightingModel::estimateGain): of `count` samples, each a background and a
+// live grey level as background << 8 | live, those with |live - gain x background| < band agree.
+// Their sums of live x background, background² and live² (integers, exact in a double), their
+// count; the tiles (from `tiles`, one per sample) of the others go to `disagreeing` in order.
+struct Agreement {
+  double sum_lb = 0.0;
+  double sum_bb = 0.0;
+  double sum_ll = 0.0;
+  std::size_t agreeing = 0;
+  std::size_t disagreeing = 0;
+};
+Agreement agreement(const std::uint16_t* samples, const std::uint32_t* tiles, std::size_t count,
+                    double gain, double band, std::uint32_t* disagreeing);
+Agreement agreementScalar(const std::uint16_t* samples, const std::uint32_t* tiles,
+                          std::size_t count, double gain, double band, std::uint32_t* disagreeing);
+
 }  // namespace occmap::lighting_steps

@@ -103,14 +103,15 @@ double shareUnchanged(const Mask& mask, const Image& where) {
 // pixels still unchanged, without the model (today) and with it. The table, per pixel.
 // The model's per-pixel passes (core/lighting_steps.h) give the scalar yardstick's bytes on every
 // SIMD target this CPU runs, for rows of every length (whole vectors and the tail), every gain
-// from a quarter to four, every rate of drift, quiet and clipped pixels mixed.
+// from a quarter to four, every rate of drift, quiet and clipped pixels mixed, samples on both
+// sides of the gain's agreement band.
 TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
   std::mt19937 random(7);
   std::uniform_int_distribution<int> grey(0, 255);
   std::uniform_int_distribution<int> fine_value(0, 65535);
   std::uniform_int_distribution<int> inverse(16384, 262144);  // gains from 4 to 1/4
   std::uniform_int_distribution<int> alpha(1, 32768);
-  std::size_t rows = 0;
+  std::size_t rows = 0, moved_pixels = 0, agreeing = 0, disagreeing_total = 0;
   for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
     SCOPED_TRACE(hwy::TargetName(target));
     hwy::SetSupportedTargetsForTest(target);
@@ -143,12 +144,41 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
                                      expected_moved.data(), expected_grey.data());
       ASSERT_EQ(moved, expected_moved) << "width " << width << ", alpha " << alpha_q16;
       ASSERT_EQ(grey_out, expected_grey) << "width " << width;
-      ASSERT_NE(moved, fine) << "some quiet pixel should have moved";
+      for (std::size_t u = 0; u < fine.size(); ++u) moved_pixels += moved[u] != fine[u];
+      // The gain's agreement over samples (background << 8 | live), some near the band's edges.
+      std::vector<std::uint16_t> samples(live.size());
+      std::vector<std::uint32_t> tiles(live.size());
+      const double gain = 65536.0 / inverse_q16;
+      for (std::size_t u = 0; u < live.size(); ++u) {
+        const int b = grey(random);
+        const int l =
+            std::clamp(static_cast<int>(std::lround(gain * b)) + grey(random) % 21 - 10, 0, 255);
+        samples[u] = static_cast<std::uint16_t>(b << 8 | l);
+        tiles[u] = static_cast<std::uint32_t>(u * 7);
+      }
+      std::vector<std::uint32_t> disagreeing(live.size()), expected_disagreeing(live.size());
+      const lighting_steps::Agreement sums = lighting_steps::agreement(
+          samples.data(), tiles.data(), samples.size(), gain, 8.0, disagreeing.data());
+      const lighting_steps::Agreement expected = lighting_steps::agreementScalar(
+          samples.data(), tiles.data(), samples.size(), gain, 8.0, expected_disagreeing.data());
+      ASSERT_EQ(sums.agreeing, expected.agreeing) << "width " << width;
+      ASSERT_EQ(sums.disagreeing, expected.disagreeing) << "width " << width;
+      ASSERT_EQ(sums.sum_lb, expected.sum_lb) << "width " << width;
+      ASSERT_EQ(sums.sum_bb, expected.sum_bb) << "width " << width;
+      ASSERT_EQ(sums.sum_ll, expected.sum_ll) << "width " << width;
+      disagreeing.resize(sums.disagreeing);
+      expected_disagreeing.resize(expected.disagreeing);
+      ASSERT_EQ(disagreeing, expected_disagreeing) << "width " << width;
+      agreeing += sums.agreeing;
+      disagreeing_total += sums.disagreeing;
       ++rows;
     }
   }
   hwy::SetSupportedTargetsForTest(0);
   EXPECT_GT(rows, 60u);
+  EXPECT_GT(moved_pixels, 1000u) << "the drift should move most quiet pixels";
+  EXPECT_GT(agreeing, 1000u);
+  EXPECT_GT(disagreeing_total, 1000u);
 }
 
 TEST(LightingModel, TheEmptyFloorStaysUnchangedUnderAGainFromHalfToDouble) {
