@@ -8,6 +8,7 @@
 // scripts/bench. Rates are maps per second of CPU time on one core (the machine may be shared).
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -18,6 +19,7 @@
 #include <vector>
 
 #include <benchmark/benchmark.h>
+#include <hwy/targets.h>
 #include <unistd.h>
 
 #include "bench/baselines.h"
@@ -292,6 +294,39 @@ void differenceLitCase(benchmark::State& state, const std::string& config,
   finish(state);
 }
 
+// The product with the light's model on, as occmapd runs it by default: every camera's frame
+// through its model and difference (core/changed_pixels.h), and the fusion, on one core.
+void kernelLitCase(benchmark::State& state, const std::string& config, const std::string& mode_name,
+                   bool cold) {
+  ConfigData& data = configData(config);
+  FusionKernel& kernel = *mode(data, mode_name).kernel;
+  const std::size_t cameras = data.backgrounds.size();
+  std::vector<std::vector<std::uint8_t>> masks(cameras, std::vector<std::uint8_t>(data.mask_bytes));
+  std::vector<const std::uint8_t*> changed_masks;
+  for (const auto& mask : masks) changed_masks.push_back(mask.data());
+  std::vector<Image> backgrounds;
+  std::vector<ChangedPixels> changed;
+  for (const ImageView& view : data.backgrounds) {
+    Image copy(view.width, view.height);
+    for (int v = 0; v < view.height; ++v) std::copy_n(view.row(v), view.width, copy.row(v));
+    backgrounds.push_back(std::move(copy));
+    changed.emplace_back(LightingSettings{});
+  }
+  std::vector<CellState> out(data.rig->config().map.cellCount());
+  std::size_t i = 0;
+  for (auto _ : state) {
+    for (std::size_t k = 0; k < cameras; ++k) {
+      changed[k].mark(kernel, k, data.rotation_views[i][k], backgrounds[k], kThreshold,
+                      masks[k].data());
+    }
+    kernel.fuse(changed_masks, out);
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+    if (cold && ++i == data.rotation.size()) i = 0;
+  }
+  finish(state);
+}
+
 // Each frame set of the rotation as the fusion thread gets it: one changed-pixel mask per camera.
 std::vector<std::vector<const std::uint8_t*>> maskSets(const ConfigData& data) {
   std::vector<std::vector<const std::uint8_t*>> sets(data.mask_rotation.size());
@@ -433,6 +468,9 @@ void registerAll() {
                                      differenceLitCase, config, mode_name, cold);
         benchmark::RegisterBenchmark((config + "/" + mode_name + "/kernel/" + temperature).c_str(),
                                      kernelCase, config, mode_name, cold);
+        benchmark::RegisterBenchmark(
+            (config + "/" + mode_name + "/kernel_lit/" + temperature).c_str(), kernelLitCase,
+            config, mode_name, cold);
         benchmark::RegisterBenchmark((config + "/" + mode_name + "/fuse/" + temperature).c_str(),
                                      fuseCase, config, mode_name, cold);
       }
@@ -459,8 +497,10 @@ void printSummary(const std::map<std::string, double>& rates) {
   std::printf("  %-30s %8s %8s  %6s %6s   %6s %6s\n", "", "", "", "warm", "cold", "warm", "cold");
   for (const std::string config : {"paper", "large"}) {
     for (const std::string row :
-         {"paper_loop", "memory_bound", "floor/previous", "floor/difference", "floor/fuse",
-          "floor/kernel", "column/previous", "column/difference", "column/fuse", "column/kernel"}) {
+         {"paper_loop", "memory_bound", "floor/previous", "floor/difference",
+          "floor/difference_lit", "floor/fuse", "floor/kernel", "floor/kernel_lit",
+          "column/previous", "column/difference", "column/difference_lit", "column/fuse",
+          "column/kernel", "column/kernel_lit"}) {
       const double warm = rate(config + "/" + row + "/warm");
       const double cold = rate(config + "/" + row + "/cold");
       if (warm == 0 && cold == 0) continue;
@@ -481,11 +521,14 @@ void printSummary(const std::map<std::string, double>& rates) {
     for (const std::string mode_name : {"floor", "column"}) {
       const double maps = rate(config + "/" + mode_name + "/kernel/cold");
       if (maps == 0) continue;
-      printJsonLine({{"config", config},
-                     {"mode", mode_name},
-                     {"maps_per_s", rounded(maps, 1)},
-                     {"paper_loop_maps_per_s", rounded(rate(config + "/paper_loop/cold"), 1)},
-                     {"memory_bound_maps_per_s", rounded(rate(config + "/memory_bound/cold"), 1)}});
+      printJsonLine(
+          {{"config", config},
+           {"mode", mode_name},
+           {"simd_target", fusionSimdTarget()},
+           {"maps_per_s", rounded(maps, 1)},
+           {"lit_maps_per_s", rounded(rate(config + "/" + mode_name + "/kernel_lit/cold"), 1)},
+           {"paper_loop_maps_per_s", rounded(rate(config + "/paper_loop/cold"), 1)},
+           {"memory_bound_maps_per_s", rounded(rate(config + "/memory_bound/cold"), 1)}});
     }
   }
 }
@@ -496,6 +539,36 @@ void printSummary(const std::map<std::string, double>& rates) {
 int main(int argc, char** argv) {
   // Medians of five repetitions unless told otherwise.
   std::vector<char*> args(argv, argv + argc);
+  // The SIMD target: the best this CPU has unless --simd_target=NAME names another it runs
+  // (scripts/bench runs each); --list_simd_targets prints their names.
+  for (auto arg = args.begin() + 1; arg != args.end();) {
+    const std::string text = *arg;
+    if (text == "--list_simd_targets") {
+      for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+        std::printf("%s\n", hwy::TargetName(target));
+      }
+      return 0;
+    }
+    if (text.rfind("--simd_target=", 0) != 0) {
+      ++arg;
+      continue;
+    }
+    const std::string name = text.substr(std::strlen("--simd_target="));
+    std::int64_t chosen = 0;
+    for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+      if (name == hwy::TargetName(target)) chosen = target;
+    }
+    if (chosen == 0) {
+      std::fprintf(stderr,
+                   "fusion_bench: this CPU does not run SIMD target %s; --list_simd_targets "
+                   "says which it does\n",
+                   name.c_str());
+      return 2;
+    }
+    // Highway's way to make dynamic dispatch pick one target (named for tests, which use it too).
+    hwy::SetSupportedTargetsForTest(chosen);
+    arg = args.erase(arg);
+  }
   std::string repetitions = "--benchmark_repetitions=5";
   std::string aggregates = "--benchmark_report_aggregates_only=true";
   std::string min_time = "--benchmark_min_time=0.3";

@@ -117,6 +117,12 @@ void LightingModel::estimateGain(ImageView live) {
     const std::uint8_t* background = reference_.row(v);
     const std::uint8_t* frame = live.row(v);
     const std::uint32_t row_tiles = static_cast<std::uint32_t>(v / 8) * across;
+    // A live frame comes from the camera, not from the cache: the next sampled row is asked for
+    // while this one is read (each sample would otherwise wait for memory).
+    if (const int next = v + 2 * kSampleStep; next < height_) {
+      const std::uint8_t* ahead = live.row(next);
+      for (int u = 0; u < width; u += 64) __builtin_prefetch(ahead + u);
+    }
     for (int u = 0; u < width; u += kSampleStep) {
       const auto pair = static_cast<std::uint16_t>(background[u] << 8 | frame[u]);
       const std::uint16_t bin = bin_of[pair];
