@@ -4,6 +4,7 @@
 #include "core/lighting_steps.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstddef>
 
@@ -114,9 +115,15 @@ Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples,
     const std::size_t agreeing = hn::CountTrue(d, agree);
     out.agreeing += agreeing;
     if (agreeing == n) continue;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!hn::ExtractLane(hn::VecFromMask(d, agree), i)) {
-        disagreeing[out.disagreeing++] = tiles[s + i];
+    // The lanes that disagree, from the mask's bits, a byte (8 lanes) at a time.
+    std::uint8_t bits[(hn::MaxLanes(d) + 7) / 8] = {};
+    hn::StoreMaskBits(d, agree, bits);
+    for (std::size_t first = 0; first < n; first += 8) {
+      const std::size_t lanes = std::min<std::size_t>(8, n - first);
+      for (unsigned others = ~static_cast<unsigned>(bits[first / 8]) & ((1u << lanes) - 1);
+           others != 0; others &= others - 1) {
+        disagreeing[out.disagreeing++] =
+            tiles[s + first + static_cast<std::size_t>(std::countr_zero(others))];
       }
     }
   }
