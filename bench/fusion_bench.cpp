@@ -266,38 +266,11 @@ void differenceCase(benchmark::State& state, const std::string& config,
 }
 
 // The capture threads' share with the light's model on (core/changed_pixels.h, as occmapd runs
-// it): the gain found, the frame put in the background's light, the difference, the drift.
-void differenceLitCase(benchmark::State& state, const std::string& config,
-                       const std::string& mode_name, bool cold) {
-  ConfigData& data = configData(config);
-  const FusionKernel& kernel = *mode(data, mode_name).kernel;
-  const std::size_t cameras = data.backgrounds.size();
-  std::vector<std::vector<std::uint8_t>> masks(cameras, std::vector<std::uint8_t>(data.mask_bytes));
-  std::vector<Image> backgrounds;
-  std::vector<ChangedPixels> changed;
-  for (const ImageView& view : data.backgrounds) {
-    Image copy(view.width, view.height);
-    for (int v = 0; v < view.height; ++v) std::copy_n(view.row(v), view.width, copy.row(v));
-    backgrounds.push_back(std::move(copy));
-    changed.emplace_back(LightingSettings{});
-  }
-  std::size_t i = 0;
-  for (auto _ : state) {
-    for (std::size_t k = 0; k < cameras; ++k) {
-      changed[k].mark(kernel, k, data.rotation_views[i][k], backgrounds[k], kThreshold,
-                      masks[k].data());
-    }
-    benchmark::DoNotOptimize(masks.back().data());
-    benchmark::ClobberMemory();
-    if (cold && ++i == data.rotation.size()) i = 0;
-  }
-  finish(state);
-}
-
-// The product with the light's model on, as occmapd runs it by default: every camera's frame
-// through its model and difference (core/changed_pixels.h), and the fusion, on one core.
-void kernelLitCase(benchmark::State& state, const std::string& config, const std::string& mode_name,
-                   bool cold) {
+// it): the gain found, the frame put in the background's light, the difference, the local light,
+// the drift. With `fuse` (kernel_lit), the fusion too, on the same core: the product as occmapd
+// runs it by default.
+void litCase(benchmark::State& state, const std::string& config, const std::string& mode_name,
+             bool cold, bool fuse) {
   ConfigData& data = configData(config);
   FusionKernel& kernel = *mode(data, mode_name).kernel;
   const std::size_t cameras = data.backgrounds.size();
@@ -319,8 +292,9 @@ void kernelLitCase(benchmark::State& state, const std::string& config, const std
       changed[k].mark(kernel, k, data.rotation_views[i][k], backgrounds[k], kThreshold,
                       masks[k].data());
     }
-    kernel.fuse(changed_masks, out);
+    if (fuse) kernel.fuse(changed_masks, out);
     benchmark::DoNotOptimize(out.data());
+    benchmark::DoNotOptimize(masks.back().data());
     benchmark::ClobberMemory();
     if (cold && ++i == data.rotation.size()) i = 0;
   }
@@ -464,13 +438,13 @@ void registerAll() {
                                      config, mode_name, cold);
         benchmark::RegisterBenchmark((prefix + "/difference/" + temperature).c_str(),
                                      differenceCase, config, mode_name, cold);
-        benchmark::RegisterBenchmark((prefix + "/difference_lit/" + temperature).c_str(),
-                                     differenceLitCase, config, mode_name, cold);
+        benchmark::RegisterBenchmark((prefix + "/difference_lit/" + temperature).c_str(), litCase,
+                                     config, mode_name, cold, false);
         benchmark::RegisterBenchmark((config + "/" + mode_name + "/kernel/" + temperature).c_str(),
                                      kernelCase, config, mode_name, cold);
         benchmark::RegisterBenchmark(
-            (config + "/" + mode_name + "/kernel_lit/" + temperature).c_str(), kernelLitCase,
-            config, mode_name, cold);
+            (config + "/" + mode_name + "/kernel_lit/" + temperature).c_str(), litCase, config,
+            mode_name, cold, true);
         benchmark::RegisterBenchmark((config + "/" + mode_name + "/fuse/" + temperature).c_str(),
                                      fuseCase, config, mode_name, cold);
       }
