@@ -137,6 +137,46 @@ Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples,
   return out;
 }
 
+TileSums tileSumsVector(const std::uint8_t* HWY_RESTRICT frame, std::ptrdiff_t frame_stride,
+                        const std::uint8_t* HWY_RESTRICT background,
+                        std::ptrdiff_t background_stride, int width, int height, int saturated) {
+  // A whole tile's row is 8 pixels: in 8 lanes of 32 bits where the target has them, else in two
+  // halves. Tiles cut by the image's edge go the scalar way.
+  const hn::CappedTag<std::int32_t, 8> d;
+  const hn::Rebind<std::uint8_t, decltype(d)> bytes;
+  const std::size_t n = hn::Lanes(d);
+  if (width != 8 || 8 % n != 0) {
+    return tileSumsScalar(frame, frame_stride, background, background_stride, width, height,
+                          saturated);
+  }
+  const auto clipped = hn::Set(d, saturated);
+  const auto one = hn::Set(d, 1);
+  // At most 64 pixels of 255² each: the sums fit 32 bits.
+  auto count = hn::Zero(d);
+  auto sum_b = hn::Zero(d);
+  auto sum_bb = hn::Zero(d);
+  auto sum_lb = hn::Zero(d);
+  auto sum_ll = hn::Zero(d);
+  for (int v = 0; v < height; ++v) {
+    const std::uint8_t* l_row = frame + v * frame_stride;
+    const std::uint8_t* b_row = background + v * background_stride;
+    for (std::size_t u = 0; u < 8; u += n) {
+      const auto l = hn::PromoteTo(d, hn::LoadU(bytes, l_row + u));
+      const auto b = hn::PromoteTo(d, hn::LoadU(bytes, b_row + u));
+      const auto measured = hn::Lt(l, clipped);  // a clipped pixel does not measure the gain
+      count = hn::Add(count, hn::IfThenElseZero(measured, one));
+      sum_b = hn::Add(sum_b, hn::IfThenElseZero(measured, b));
+      sum_bb = hn::Add(sum_bb, hn::IfThenElseZero(measured, hn::Mul(b, b)));
+      sum_lb = hn::Add(sum_lb, hn::IfThenElseZero(measured, hn::Mul(l, b)));
+      sum_ll = hn::Add(sum_ll, hn::IfThenElseZero(measured, hn::Mul(l, l)));
+    }
+  }
+  const auto total = [&](auto sums) {
+    return static_cast<std::uint32_t>(hn::GetLane(hn::SumOfLanes(d, sums)));
+  };
+  return {total(count), total(sum_b), total(sum_bb), total(sum_lb), total(sum_ll)};
+}
+
 }  // namespace occmap::lighting_steps::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
@@ -147,6 +187,7 @@ HWY_EXPORT(inBackgroundsLightVector);
 HWY_EXPORT(atMostVector);
 HWY_EXPORT(driftRowVector);
 HWY_EXPORT(agreementVector);
+HWY_EXPORT(tileSumsVector);
 
 void inBackgroundsLight(const std::uint8_t* live, int width, std::int32_t inverse_q16,
                         std::uint8_t* out) {
@@ -185,6 +226,32 @@ Agreement agreementScalar(const std::uint16_t* samples, const std::uint32_t* til
     }
   }
   return out;
+}
+
+TileSums tileSums(const std::uint8_t* frame, std::ptrdiff_t frame_stride,
+                  const std::uint8_t* background, std::ptrdiff_t background_stride, int width,
+                  int height, int saturated) {
+  return HWY_DYNAMIC_DISPATCH(tileSumsVector)(frame, frame_stride, background, background_stride,
+                                              width, height, saturated);
+}
+
+TileSums tileSumsScalar(const std::uint8_t* frame, std::ptrdiff_t frame_stride,
+                        const std::uint8_t* background, std::ptrdiff_t background_stride, int width,
+                        int height, int saturated) {
+  TileSums sums;
+  for (int v = 0; v < height; ++v) {
+    const std::uint8_t* l = frame + v * frame_stride;
+    const std::uint8_t* b = background + v * background_stride;
+    for (int u = 0; u < width; ++u) {
+      if (l[u] >= saturated) continue;  // clipped: no measure of the gain
+      ++sums.count;
+      sums.sum_b += b[u];
+      sums.sum_bb += static_cast<std::uint32_t>(b[u]) * b[u];
+      sums.sum_lb += static_cast<std::uint32_t>(l[u]) * b[u];
+      sums.sum_ll += static_cast<std::uint32_t>(l[u]) * l[u];
+    }
+  }
+  return sums;
 }
 
 void inBackgroundsLightScalar(const std::uint8_t* live, int width, std::int32_t inverse_q16,

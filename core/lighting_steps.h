@@ -47,4 +47,22 @@ Agreement agreement(const std::uint16_t* samples, const std::uint32_t* tiles, st
 Agreement agreementScalar(const std::uint16_t* samples, const std::uint32_t* tiles,
                           std::size_t count, double gain, double band, std::uint32_t* disagreeing);
 
+// One tile's sums for the local light's fit (core/local_light.h): over the `width` x `height`
+// pixels (at most 8 x 8) from `frame` and `background` (rows `frame_stride` and
+// `background_stride` bytes apart), those whose frame pixel is below `saturated`: their count and
+// their sums of b, b², l x b and l².
+struct TileSums {
+  std::uint32_t count = 0;
+  std::uint32_t sum_b = 0;
+  std::uint32_t sum_bb = 0;
+  std::uint32_t sum_lb = 0;
+  std::uint32_t sum_ll = 0;
+};
+TileSums tileSums(const std::uint8_t* frame, std::ptrdiff_t frame_stride,
+                  const std::uint8_t* background, std::ptrdiff_t background_stride, int width,
+                  int height, int saturated);
+TileSums tileSumsScalar(const std::uint8_t* frame, std::ptrdiff_t frame_stride,
+                        const std::uint8_t* background, std::ptrdiff_t background_stride, int width,
+                        int height, int saturated);
+
 }  // namespace occmap::lighting_steps

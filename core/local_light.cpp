@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "core/fusion_kernel.h"
+#include "core/lighting_steps.h"
 
 namespace occmap {
 namespace {
@@ -81,23 +82,14 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
     const int v0 = static_cast<int>(tile / across_) * 8;
     const int u1 = std::min(width_, u0 + 8);
     const int v1 = std::min(height_, v0 + 8);
-    std::uint32_t sum_b = 0;
-    std::uint32_t sum_bb = 0;
-    std::uint32_t sum_lb = 0;
-    std::uint32_t sum_ll = 0;
-    std::uint32_t count = 0;
-    for (int v = v0; v < v1; ++v) {
-      const std::uint8_t* l = frame.row(v);
-      const std::uint8_t* b = background.row(v);
-      for (int u = u0; u < u1; ++u) {
-        if (l[u] >= saturated) continue;  // clipped: no measure of the gain
-        ++count;
-        sum_b += b[u];
-        sum_bb += static_cast<std::uint32_t>(b[u]) * b[u];
-        sum_lb += static_cast<std::uint32_t>(l[u]) * b[u];
-        sum_ll += static_cast<std::uint32_t>(l[u]) * l[u];
-      }
-    }
+    const lighting_steps::TileSums sums =
+        lighting_steps::tileSums(frame.row(v0) + u0, frame.stride, background.row(v0) + u0,
+                                 background.stride, u1 - u0, v1 - v0, saturated);
+    const std::uint32_t count = sums.count;
+    const std::uint32_t sum_b = sums.sum_b;
+    const std::uint32_t sum_bb = sums.sum_bb;
+    const std::uint32_t sum_lb = sums.sum_lb;
+    const std::uint32_t sum_ll = sums.sum_ll;
     // At least half of the tile measured.
     if (sum_bb == 0 || 2 * count < static_cast<std::uint32_t>((u1 - u0) * (v1 - v0))) continue;
     const double n = count;

@@ -111,7 +111,7 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
   std::uniform_int_distribution<int> fine_value(0, 65535);
   std::uniform_int_distribution<int> inverse(16384, 262144);  // gains from 4 to 1/4
   std::uniform_int_distribution<int> alpha(1, 32768);
-  std::size_t rows = 0, moved_pixels = 0, agreeing = 0, disagreeing_total = 0;
+  std::size_t rows = 0, moved_pixels = 0, agreeing = 0, disagreeing_total = 0, tile_sums = 0;
   for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
     SCOPED_TRACE(hwy::TargetName(target));
     hwy::SetSupportedTargetsForTest(target);
@@ -171,6 +171,24 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
       ASSERT_EQ(disagreeing, expected_disagreeing) << "width " << width;
       agreeing += sums.agreeing;
       disagreeing_total += sums.disagreeing;
+      // A tile's sums for the local light, whole tiles and ones cut by the image's edge: the live
+      // row and the divided one read as two small images (rows 1 and 2 bytes apart).
+      if (width >= 24) {
+        for (const int tile_width : {8, 3}) {
+          const int tile_height = 1 + width % 8;
+          const int saturated = 200 + grey(random) % 60;
+          const lighting_steps::TileSums tile = lighting_steps::tileSums(
+              live.data(), 1, expected_out.data(), 2, tile_width, tile_height, saturated);
+          const lighting_steps::TileSums expected_tile = lighting_steps::tileSumsScalar(
+              live.data(), 1, expected_out.data(), 2, tile_width, tile_height, saturated);
+          ASSERT_EQ(tile.count, expected_tile.count) << "width " << width;
+          ASSERT_EQ(tile.sum_b, expected_tile.sum_b) << "width " << width;
+          ASSERT_EQ(tile.sum_bb, expected_tile.sum_bb) << "width " << width;
+          ASSERT_EQ(tile.sum_lb, expected_tile.sum_lb) << "width " << width;
+          ASSERT_EQ(tile.sum_ll, expected_tile.sum_ll) << "width " << width;
+          tile_sums += tile.sum_lb > 0 ? 1 : 0;
+        }
+      }
       ++rows;
     }
   }
@@ -179,6 +197,7 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
   EXPECT_GT(moved_pixels, 1000u) << "the drift should move most quiet pixels";
   EXPECT_GT(agreeing, 1000u);
   EXPECT_GT(disagreeing_total, 1000u);
+  EXPECT_GT(tile_sums, 100u);
 }
 
 TEST(LightingModel, TheEmptyFloorStaysUnchangedUnderAGainFromHalfToDouble) {
