@@ -1,8 +1,10 @@
 #pragma once
 // The light's model's per-pixel passes (core/lighting_model.h), each twice: SIMD through Google
 // Highway, dispatched at run time to the best target this CPU has, and plain scalar C++, the
-// yardstick the tests hold every SIMD target to. Both are exact integer arithmetic, so every
-// target gives the same bytes. Internal to core/lighting_model.cpp, and exposed for its tests.
+// yardstick the tests hold every SIMD target to. All are integer arithmetic, or sums of integers
+// in doubles (exact in any order) and one comparison done with the scalar's very operations, so
+// every target gives the same results. Internal to core/lighting_model.cpp and
+// core/local_light.cpp, and exposed for their tests.
 
 #include <cstddef>
 #include <cstdint>
