@@ -1,8 +1,9 @@
 // occmapd on four GigE Vision cameras: Aravis's arv-fake-gv-camera-0.8, one process per camera on
 // 127.0.0.1-4 (serials GV01-GV04), inside a private network namespace the test makes, with
-// examples/aravis-fake.yaml as the config. The cameras stream at 30 fps for ten seconds without a
-// failure counted; a camera killed mid-stream is marked down within a second while the maps go on
-// (its cells turning unseen), and once it is started again the daemon streams from it within 3 s.
+// examples/aravis-fake.yaml as the config (on the daemon tests' 4 cm map). The cameras stream at 30
+// fps for ten seconds without a failure counted; a camera killed mid-stream is marked down within a
+// second while the maps go on (its cells turning unseen), and once it is started again the daemon
+// streams from it within 3 s.
 #include <algorithm>
 #include <array>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include "child_process.h"
 #include "network_namespace.h"
 #include "notify_listener.h"
+#include "sim_room_config.h"
 #include "timing.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
@@ -137,8 +139,26 @@ class FakeGigE : public ::testing::Test {
     ASSERT_TRUE(cameras_[k]->started());
   }
 
-  // occmapd on the example (or `config`), up once every camera streams (READY=1).
-  void startDaemon(const std::string& config = kConfig) {
+  // The example copied beside the test (its paths are relative to it) with its map as the daemon
+  // tests' (testing::inCoarseMap: the same floor in 4 cm cells, a quarter of the cells to build
+  // tables for at each start and reload; the cameras and their faults are what these tests are
+  // about). Returns the config's text; it is written to occmapd.yaml.
+  std::string writeExample() {
+    if (!std::filesystem::exists(folder_ / "aravis-fake")) {
+      std::filesystem::copy(OCCMAP_SOURCE_DIR "/examples/aravis-fake", folder_ / "aravis-fake");
+    }
+    const std::string text = testing::inCoarseMap(testing::readWhole(kConfig));
+    EXPECT_NE(text, "") << "examples/aravis-fake.yaml changed: not the map inCoarseMap knows";
+    folder_.write("occmapd.yaml", text);
+    return text;
+  }
+
+  // occmapd on the example (writeExample, or `config`), up once every camera streams (READY=1).
+  void startDaemon(std::string config = "") {
+    if (config.empty()) {
+      writeExample();
+      config = (folder_ / "occmapd.yaml").string();
+    }
     NotifyListener systemd(folder_ / "notify");
     daemon_ = std::make_unique<ChildProcess>(std::vector<std::string>{kOccmapd, "--config", config},
                                              folder_ / "occmapd",
@@ -301,11 +321,9 @@ TEST_F(FakeGigE, ACameraKilledIsMarkedDownTheMapsGoOnAndItStreamsAgainSoonAfterI
 // over without reconnecting; a changed one is opened anew with its new settings; a config a camera
 // refuses puts the old one back, cameras and all.
 TEST_F(FakeGigE, AReloadKeepsUnchangedCamerasAndReopensAChangedOne) {
-  // The example, copied so that it can be edited (its paths are relative to it).
-  std::filesystem::copy(OCCMAP_SOURCE_DIR "/examples/aravis-fake", folder_ / "aravis-fake");
-  std::string text = testing::readWhole(kConfig);
-  const auto config = folder_.write("occmapd.yaml", text);
-  startDaemon(config.string());
+  // The example, copied so that it can be edited.
+  std::string text = writeExample();
+  startDaemon((folder_ / "occmapd.yaml").string());
   Listener listener;
   ASSERT_TRUE(listener.good());
   ASSERT_TRUE(listener.listen(5s, [&] { return listener.status().has_value(); }));
