@@ -14,6 +14,7 @@ namespace {
 // The gain is looked for between 1/4 and 4, in log-ratio bins of about 0.5 %.
 constexpr int kBins = 512;
 constexpr double kLogRange = 1.3862943611198906;  // ln 4
+constexpr double kBinsPerLog = kBins / (2 * kLogRange);
 // Background grey levels whose ratio says something: darker ones are mostly noise, brighter ones
 // may be clipped. Live grey levels at or above kSaturated say only "at least this bright".
 constexpr int kDarkest = 16;
@@ -34,7 +35,6 @@ const std::array<std::uint16_t, 65536>& binOfPair() {
       // In float as before the table (the bins are those of the float logarithms).
       ln[static_cast<std::size_t>(v)] = static_cast<double>(std::log(static_cast<float>(v) + 0.5f));
     }
-    constexpr double kBinsPerLog = kBins / (2 * kLogRange);
     std::array<std::uint16_t, 65536> t{};
     for (int b = 0; b < 256; ++b) {
       for (int l = 0; l < 256; ++l) {
@@ -105,7 +105,6 @@ void LightingModel::estimateGain(ImageView live) {
   const std::array<std::uint16_t, 65536>& bin_of = binOfPair();
   std::fill(histogram_.begin(), histogram_.end(), 0u);
   std::size_t usable = 0;
-  constexpr double kBinsPerLog = kBins / (2 * kLogRange);
   // Locals, not members, in the loop: a store may alias any member, which the compiler would then
   // reload for every sample.
   const int width = width_;
@@ -157,21 +156,18 @@ void LightingModel::estimateGain(ImageView live) {
   const lighting_steps::Agreement sums = lighting_steps::agreement(
       samples_.data(), sample_tiles_.data(), usable, median, band, disagreeing_.data());
   disagreeing_count_ = sums.disagreeing;
-  const std::size_t agreeing = sums.agreeing;
-  const double sum_lb = sums.sum_lb;
-  const double sum_bb = sums.sum_bb;
-  // The squared residuals about the median's gain, from the exact sums.
-  const double sum_squared_residual =
-      std::max(0.0, sums.sum_ll - 2.0 * median * sum_lb + median * median * sum_bb);
-  agreeing_ = agreeing;
-  agreement_ = static_cast<double>(agreeing) / static_cast<double>(usable);
-  explained_ = agreement_ >= settings_.min_agreement && sum_bb > 0.0;
+  agreeing_ = sums.agreeing;
+  agreement_ = static_cast<double>(agreeing_) / static_cast<double>(usable);
+  explained_ = agreement_ >= settings_.min_agreement && sums.sum_bb > 0.0;
   // The gain of what agrees, even when too little agrees for the frame to count yet: a light in
   // part of the view (explainLocally) may explain the rest.
-  if (agreeing >= kFewestSamples && sum_bb > 0.0) {
-    gain_ = std::clamp(sum_lb / sum_bb, 0.25, 4.0);
-    // In the background's light, as the frame is compared.
-    noise_ = std::sqrt(sum_squared_residual / static_cast<double>(agreeing)) / gain_;
+  if (agreeing_ >= kFewestSamples && sums.sum_bb > 0.0) {
+    gain_ = std::clamp(sums.sum_lb / sums.sum_bb, 0.25, 4.0);
+    // The squared residuals about the median's gain, from the exact sums; in the background's
+    // light, as the frame is compared.
+    const double squared_residuals =
+        std::max(0.0, sums.sum_ll - 2.0 * median * sums.sum_lb + median * median * sums.sum_bb);
+    noise_ = std::sqrt(squared_residuals / static_cast<double>(agreeing_)) / gain_;
   }
 }
 
