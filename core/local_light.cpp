@@ -82,14 +82,9 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
     const int v0 = static_cast<int>(tile / across_) * 8;
     const int u1 = std::min(width_, u0 + 8);
     const int v1 = std::min(height_, v0 + 8);
-    const lighting_steps::TileSums sums =
+    const auto [count, sum_b, sum_bb, sum_lb, sum_ll] =
         lighting_steps::tileSums(frame.row(v0) + u0, frame.stride, background.row(v0) + u0,
                                  background.stride, u1 - u0, v1 - v0, saturated);
-    const std::uint32_t count = sums.count;
-    const std::uint32_t sum_b = sums.sum_b;
-    const std::uint32_t sum_bb = sums.sum_bb;
-    const std::uint32_t sum_lb = sums.sum_lb;
-    const std::uint32_t sum_ll = sums.sum_ll;
     // At least half of the tile measured.
     if (sum_bb == 0 || 2 * count < static_cast<std::uint32_t>((u1 - u0) * (v1 - v0))) continue;
     const double n = count;
