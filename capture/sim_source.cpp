@@ -9,11 +9,16 @@
 namespace occmap {
 
 SimSource::SimSource(std::shared_ptr<const sim::Scene> scene, Camera camera, int camera_index,
-                     double fps)
+                     double fps, std::optional<SimKnock> knock)
     : scene_(std::move(scene)),
       renderer_(*scene_, std::move(camera), camera_index),
       fps_(fps),
-      frame_count_(static_cast<std::uint64_t>(std::floor(scene_->durationS() * fps))) {}
+      frame_count_(static_cast<std::uint64_t>(std::floor(scene_->durationS() * fps))) {
+  if (knock) {
+    knocked_.emplace(*scene_, std::move(knock->camera), camera_index);
+    knock_at_s_ = knock->at_s;
+  }
+}
 
 FrameSource::Status SimSource::read(Frame& frame) {
   if (next_ - first_of_loop_ >= frame_count_) return ended();
@@ -22,11 +27,12 @@ FrameSource::Status SimSource::read(Frame& frame) {
   if (current_.width() != width() || current_.height() != height())
     current_ = Image(width(), height());
   scene_->lightPatches(last_time_, patches_);
+  const sim::Renderer& renderer = knocked_ && last_time_ >= knock_at_s_ ? *knocked_ : renderer_;
   if (patches_.empty()) {
-    renderer_.render(objects_, next_, current_, depth_);
+    renderer.render(objects_, next_, current_, depth_);
   } else {
-    renderer_.render(objects_, next_, current_, depth_, &object_pixels_);
-    renderer_.light(patches_, object_pixels_, current_);
+    renderer.render(objects_, next_, current_, depth_, &object_pixels_);
+    renderer.light(patches_, object_pixels_, current_);
   }
   // The light as the sensor records it: every grey level scaled, clipped at 255.
   if (const double gain = scene_->lightGain(last_time_); gain != 1.0) {

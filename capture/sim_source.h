@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "capture/frame_source.h"
@@ -8,11 +9,19 @@
 
 namespace occmap {
 
+// A simulated camera knocked during the scene (sim::Knock): from `at_s` on, frames show what
+// `camera` sees, while the calibration the rig uses is still the old one.
+struct SimKnock {
+  double at_s = 0;
+  Camera camera;
+};
+
 // sim://<scene>/<camera>: what a simulated camera sees. Frame n shows the scene at t = n / fps; an
 // off-line source ends with the scene's scripted motion.
 class SimSource final : public FrameSource {
  public:
-  SimSource(std::shared_ptr<const sim::Scene> scene, Camera camera, int camera_index, double fps);
+  SimSource(std::shared_ptr<const sim::Scene> scene, Camera camera, int camera_index, double fps,
+            std::optional<SimKnock> knock = std::nullopt);
 
   int width() const override { return renderer_.camera().streamWidth(); }
   int height() const override { return renderer_.camera().streamHeight(); }
@@ -34,6 +43,8 @@ class SimSource final : public FrameSource {
  private:
   std::shared_ptr<const sim::Scene> scene_;
   sim::Renderer renderer_;
+  std::optional<sim::Renderer> knocked_;  // the view after the knock, if any
+  double knock_at_s_ = 0;
   double fps_;
   std::uint64_t frame_count_;
   std::uint64_t next_ = 0;

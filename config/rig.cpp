@@ -149,8 +149,17 @@ Rig Rig::open(const Config& full_config, const RigOptions& options) {
         opener.fail(calibration ? "calibration" : "source",
                     "a simulated camera must stand inside the scene's room");
       }
+      // A scene's knock turns its own camera; a camera of the user's calibration is never knocked.
+      std::optional<SimKnock> knock;
+      if (const auto knocked = scene->knock(spec->camera); knocked && !calibration) {
+        const auto& tsai = static_cast<const TsaiCamera&>(*model).parameters();
+        knock = SimKnock{
+            knocked->at_s,
+            Camera(std::make_shared<TsaiCamera>(sim::turnedOnItsMount(tsai, knocked->turn)), units,
+                   width, height, region)};
+      }
       auto sim = std::make_unique<SimSource>(scene, geometry, static_cast<int>(index),
-                                             entry.fps.value_or(30.0));
+                                             entry.fps.value_or(30.0), std::move(knock));
       camera.sim = sim.get();
       camera.camera = std::make_unique<Camera>(geometry);
       camera.background = entry.background

@@ -251,15 +251,28 @@ class RoomLampsScene final : public RoomInItsLight {
     if (t >= 2.0 && t < 16.0) out.push_back({{6.5, 1.8}, {0.8, 0.6}, false, 0.3, 0.6});
   }
 };
+
+// The room with camera c1 knocked on its mount at 2 s: turned by 1 degree, mostly to one side and
+// a little down and about its axis, and left so. Its calibration and background are the old pose's.
+class RoomKnockScene final : public RoomInItsLight {
+ public:
+  std::string_view name() const override { return "room-knock"; }
+  std::optional<Knock> knock(std::string_view camera) const override {
+    if (camera != "c1") return std::nullopt;
+    const double one_degree = std::numbers::pi / 180;
+    return Knock{2.0, Eigen::Vector3d(0.3, 0.9, 0.3).normalized() * one_degree};
+  }
+};
 }  // namespace
 
 std::unique_ptr<Scene> makeScene(std::string_view name) {
   if (name == "room") return std::make_unique<RoomScene>();
   if (name == "room-light") return std::make_unique<RoomLightScene>();
   if (name == "room-lamps") return std::make_unique<RoomLampsScene>();
+  if (name == "room-knock") return std::make_unique<RoomKnockScene>();
   return nullptr;
 }
 
-std::vector<std::string> sceneNames() { return {"room", "room-light", "room-lamps"}; }
+std::vector<std::string> sceneNames() { return {"room", "room-light", "room-lamps", "room-knock"}; }
 
 }  // namespace occmap::sim

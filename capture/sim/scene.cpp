@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Geometry>
+
 namespace occmap::sim {
 
 bool Solid::footprintContains(const Eigen::Vector2d& p) const {
@@ -105,6 +107,17 @@ double LightPatch::at(const Eigen::Vector2d& p) const {
   const double weight =
       soft_m <= 0.0 ? (inside >= 0.0 ? 1.0 : 0.0) : std::clamp(0.5 + inside / soft_m, 0.0, 1.0);
   return 1.0 + (gain - 1.0) * weight;
+}
+
+TsaiParameters turnedOnItsMount(const TsaiParameters& calibration, const Eigen::Vector3d& turn) {
+  // Xc' = Q Xc = Q (R Xw + T): the same centre, the view turned by Q.
+  const Eigen::Matrix3d q =
+      turn.norm() > 0 ? Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix()
+                      : Eigen::Matrix3d::Identity();
+  TsaiParameters turned = calibration;
+  turned.setPose(Pose{q * rotationFromTsaiAngles(calibration.rx, calibration.ry, calibration.rz),
+                      q * Eigen::Vector3d(calibration.tx, calibration.ty, calibration.tz)});
+  return turned;
 }
 
 bool Scene::roomContains(const Eigen::Vector3d& p) const {

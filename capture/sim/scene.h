@@ -82,6 +82,16 @@ struct SceneCamera {
   TsaiParameters calibration;
 };
 
+// A camera knocked on its mount at a moment of the scene: from `at_s` on it looks along its old
+// view turned by `turn` (axis times angle in radians, in camera coordinates: x right, y down, z
+// along the optical axis), about its own centre. Its calibration still describes the old pose.
+struct Knock {
+  double at_s = 0;
+  Eigen::Vector3d turn = Eigen::Vector3d::Zero();
+};
+// The calibration of a camera turned so.
+TsaiParameters turnedOnItsMount(const TsaiParameters& calibration, const Eigen::Vector3d& turn);
+
 class Scene {
  public:
   virtual ~Scene() = default;
@@ -116,6 +126,8 @@ class Scene {
   // Light on part of the floor at time t (a lamp's pool, sun through a window, shade), on top of
   // lightGain; objects are not lit by it.
   virtual void lightPatches(double /*t*/, std::vector<LightPatch>& out) const { out.clear(); }
+  // Whether the camera of this name is knocked during the scene, and how.
+  virtual std::optional<Knock> knock(std::string_view /*camera*/) const { return std::nullopt; }
 
   // The nearest static surface along a ray (t > 1e-9), with its normal; rays from inside the room
   // always hit something (walls and ceiling close it).
@@ -130,7 +142,8 @@ class Scene {
 };
 
 // Built-in scenes by name ("room": the paper's set-up; "room-light": the same room and people while
-// its light steps and ramps, docs/lighting.md). Empty for an unknown name.
+// its light steps and ramps; "room-lamps": light in parts of it; "room-knock": camera c1 turned by
+// 1 degree at 2 s; docs/lighting.md). Empty for an unknown name.
 std::unique_ptr<Scene> makeScene(std::string_view name);
 std::vector<std::string> sceneNames();
 
