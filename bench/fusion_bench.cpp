@@ -290,7 +290,7 @@ void litCase(benchmark::State& state, const std::string& config, const std::stri
   for (auto _ : state) {
     for (std::size_t k = 0; k < cameras; ++k) {
       changed[k].mark(kernel, k, data.rotation_views[i][k], backgrounds[k], kThreshold,
-                      masks[k].data());
+                      masks[k].data(), /*time_us=*/0);
     }
     if (fuse) kernel.fuse(changed_masks, out);
     benchmark::DoNotOptimize(out.data());

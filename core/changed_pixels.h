@@ -2,6 +2,8 @@
 // One camera's share of the work for each frame, as its capture thread in occmapd does it and as
 // `occmap fuse` repeats it, so that off-line maps equal live ones: the light's model (when the
 // config adapts to the light), the difference into changed-pixel tiles, and the model's drift.
+// When the model does not explain a frame, whether the camera was moved (core/view_motion.h), at
+// most once a second of capture time.
 // No I/O, no threads; the model is made at the first frame and again only when the background is
 // replaced (a recapture), never per frame.
 
@@ -12,18 +14,23 @@
 #include "core/fusion_kernel.h"
 #include "core/image.h"
 #include "core/lighting_model.h"
+#include "core/view_motion.h"
 
 namespace occmap {
+
+// Whether a camera looks where its calibration says (lcmtypes/view_status_t.lcm).
+enum class ViewState : std::uint8_t { kAsCalibrated = 0, kUnexplained = 1, kMoved = 2 };
 
 class ChangedPixels {
  public:
   explicit ChangedPixels(const LightingSettings& lighting) : settings_(lighting) {}
 
-  // Marks camera k's changed pixels of `live` into `changed` (changedMaskBytes of the stream).
-  // False when the light's model does not explain the frame: then its changes are no evidence of
-  // anything (a bumped camera, lights out) and the frame must not count.
+  // Marks camera k's changed pixels of `live`, captured at `time_us`, into `changed`
+  // (changedMaskBytes of the stream). False when the light's model does not explain the frame:
+  // then its changes are no evidence of anything (a bumped camera, lights out) and the frame must
+  // not count.
   bool mark(const FusionKernel& kernel, std::size_t k, ImageView live, const Image& background,
-            int threshold, std::uint8_t* changed) {
+            int threshold, std::uint8_t* changed, std::int64_t time_us) {
     if (!settings_.adapt) {
       kernel.markChangedPixels(k, live, background.view(), threshold, changed);
       return true;
@@ -34,22 +41,46 @@ class ChangedPixels {
       } else {
         model_.emplace(background.view(), settings_);
       }
+      view_motion_.emplace(background.view());
       model_background_ = &background;
+      view_ = ViewState::kAsCalibrated;
+      checked_us_.reset();
     }
     const ImageView corrected = model_->correct(live);
     kernel.markChangedPixels(k, corrected, model_->background(), threshold, changed);
     model_->explainLocally(corrected, threshold, changed);
     model_->follow(live, changed);
+    if (model_->explained()) {
+      view_ = ViewState::kAsCalibrated;
+    } else if (!checked_us_ || time_us - *checked_us_ >= kViewCheckPeriodUs ||
+               time_us < *checked_us_) {
+      // The first frame no light explains is checked at once, then one a second: tens of
+      // milliseconds each, of frames that do not count anyway.
+      motion_ = view_motion_->estimate(live);
+      view_ = motion_.moved ? ViewState::kMoved : ViewState::kUnexplained;
+      checked_us_ = time_us;
+    }
     return model_->explained();
   }
 
   // The model, once a frame has been marked with one.
   const LightingModel* lighting() const { return model_ ? &*model_ : nullptr; }
+  // Whether the camera looks where its calibration says; when kMoved, the motion found, at the
+  // capture time checkedUs().
+  ViewState view() const { return view_; }
+  const ViewMotion& motion() const { return motion_; }
+  std::int64_t checkedUs() const { return checked_us_.value_or(0); }
+
+  static constexpr std::int64_t kViewCheckPeriodUs = 1'000'000;
 
  private:
   LightingSettings settings_;
   std::optional<LightingModel> model_;
+  std::optional<ViewMotionEstimator> view_motion_;
   const Image* model_background_ = nullptr;
+  ViewState view_ = ViewState::kAsCalibrated;
+  ViewMotion motion_;
+  std::optional<std::int64_t> checked_us_;
 };
 
 }  // namespace occmap

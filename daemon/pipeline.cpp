@@ -260,7 +260,7 @@ void Pipeline::captureLoop(std::size_t k) {
     const Image& background = camera.control.background.current();
     const int threshold = camera.control.threshold.load(std::memory_order_relaxed);
     slot.explained = camera.changed_pixels.mark(kernel_, k, frame.image, background, threshold,
-                                                slot.changed.data());
+                                                slot.changed.data(), frame.capture_time_us);
     if (const LightingModel* model = camera.changed_pixels.lighting(); model != nullptr) {
       camera.lighting_gain.store(model->gain(), std::memory_order_relaxed);
       camera.lighting_agreement.store(model->agreement(), std::memory_order_relaxed);
@@ -268,6 +268,12 @@ void Pipeline::captureLoop(std::size_t k) {
     if (!slot.explained) camera.unexplained_frames.fetch_add(1, std::memory_order_relaxed);
     if (slot.explained == camera.unexplained.load(std::memory_order_relaxed)) {
       noteLighting(k, slot.explained);
+    }
+    if (camera.changed_pixels.checkedUs() !=
+            camera.view_checked_us.load(std::memory_order_relaxed) ||
+        static_cast<std::int8_t>(camera.changed_pixels.view()) !=
+            camera.view.load(std::memory_order_relaxed)) {
+      noteView(k);
     }
     slot.sequence = frame.sequence;
     slot.capture_time_us = frame.capture_time_us;
@@ -303,6 +309,39 @@ void Pipeline::noteLighting(std::size_t k, bool explained) {
             "not shown)",
             prepared_.rig.cameras()[k].name.c_str(), 100 * agreement,
             static_cast<unsigned long long>(suppressed));
+  }
+}
+
+// Capture thread: the camera's view was checked (ChangedPixels: while no light explains it, once a
+// second), or is as calibrated again. A move is said when first found; the figures go to the
+// status.
+void Pipeline::noteView(std::size_t k) {
+  Camera& camera = *cameras_[k];
+  const ViewState view = camera.changed_pixels.view();
+  const auto before = static_cast<ViewState>(camera.view.load(std::memory_order_relaxed));
+  double turn_deg = 0;
+  double residual_px = 0;
+  const ViewMotion& motion = camera.changed_pixels.motion();
+  if (view == ViewState::kMoved) {
+    const CameraTurn turn = cameraTurn(*prepared_.rig.cameras()[k].camera, motion);
+    turn_deg = turn.degrees();
+    residual_px = turn.found ? turn.residual_px : motion.residual_px;
+  }
+  const bool moved = view == ViewState::kMoved;
+  camera.view_shift_x_px.store(moved ? motion.shift_x_px : 0, std::memory_order_relaxed);
+  camera.view_shift_y_px.store(moved ? motion.shift_y_px : 0, std::memory_order_relaxed);
+  camera.view_turn_deg.store(turn_deg, std::memory_order_relaxed);
+  camera.view_residual_px.store(residual_px, std::memory_order_relaxed);
+  camera.view_checked_us.store(camera.changed_pixels.checkedUs(), std::memory_order_relaxed);
+  camera.view.store(static_cast<std::int8_t>(view), std::memory_order_relaxed);
+  if (moved && before != ViewState::kMoved) {
+    logLine(LogLevel::kWarning,
+            "camera %s: its view moved: it turned %.2f degrees on its mount (the image shifted "
+            "%.1f px right and %.1f px down at its centre, %.2f px off a turn alone); its "
+            "calibration no longer holds, so its cells count as unseen. Put the camera back, or "
+            "calibrate it again and reload; a new background alone would not make it right",
+            prepared_.rig.cameras()[k].name.c_str(), turn_deg, motion.shift_x_px, motion.shift_y_px,
+            residual_px);
   }
 }
 
@@ -476,6 +515,12 @@ void Pipeline::fillReport(std::int64_t now) {
     c.lighting_agreement = camera.lighting_agreement.load(std::memory_order_relaxed);
     c.lighting_explained = !camera.unexplained.load(std::memory_order_relaxed);
     c.unexplained_frames = camera.unexplained_frames.load(std::memory_order_relaxed);
+    c.view = camera.view.load(std::memory_order_relaxed);
+    c.view_shift_x_px = camera.view_shift_x_px.load(std::memory_order_relaxed);
+    c.view_shift_y_px = camera.view_shift_y_px.load(std::memory_order_relaxed);
+    c.view_turn_deg = camera.view_turn_deg.load(std::memory_order_relaxed);
+    c.view_residual_px = camera.view_residual_px.load(std::memory_order_relaxed);
+    c.view_checked_utime = camera.view_checked_us.load(std::memory_order_relaxed);
   }
 }
 

@@ -134,6 +134,15 @@ class Pipeline {
     std::atomic<double> lighting_gain{1.0};
     std::atomic<double> lighting_agreement{1.0};
     std::atomic<std::uint64_t> unexplained_frames{0};
+    // Whether it looks where its calibration says, and how it moved (view_status_t): written by
+    // the capture thread after each check of its view (ChangedPixels), read by the publisher. The
+    // figures of one check may reach a status with those of the next: a second apart, either tells.
+    std::atomic<std::int8_t> view{0};
+    std::atomic<double> view_shift_x_px{0};
+    std::atomic<double> view_shift_y_px{0};
+    std::atomic<double> view_turn_deg{0};
+    std::atomic<double> view_residual_px{0};
+    std::atomic<std::int64_t> view_checked_us{0};
     // The newest frame: when fusion is behind, the oldest gives way (fusion only takes the newest).
     TripleBuffer<CapturedFrame> frames;
     alignas(64) std::atomic<std::uint64_t> frames_in{0};
@@ -151,6 +160,7 @@ class Pipeline {
   void captureLoop(std::size_t camera);
   void loseCamera(std::size_t camera, const char* why);
   void noteLighting(std::size_t camera, bool explained);
+  void noteView(std::size_t camera);
   void fusionLoop();
   void noteState(std::size_t camera, CameraState state, std::int64_t now);
   void fuse(std::int64_t now);

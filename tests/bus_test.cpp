@@ -149,5 +149,51 @@ TEST(LightingStatus, IsDecodedWhenWholeAndRefusedWithAReasonOtherwise) {
   refused(negative, "num_cameras is negative");
 }
 
+// A view_status_t likewise.
+TEST(ViewStatus, IsDecodedWhenWholeAndRefusedWithAReasonOtherwise) {
+  occmap::view_status_t sent{};
+  sent.utime = 1'700'000'000'000'000;
+  sent.request_id = -1;
+  sent.hostname = "cell-3";
+  sent.num_cameras = 3;
+  sent.camera_name = {"c0", "c1", "c2"};
+  sent.view = {occmap::view_status_t::AS_CALIBRATED, occmap::view_status_t::MOVED,
+               occmap::view_status_t::UNEXPLAINED};
+  sent.shift_x_px = {0, 10.5, 0};
+  sent.shift_y_px = {0, -3.25, 0};
+  sent.turn_deg = {0, 1.01, 0};
+  sent.residual_px = {0, 0.3, 0};
+  sent.checked_utime = {0, 1'700'000'000'500'000, 1'700'000'000'400'000};
+  std::vector<std::uint8_t> data(static_cast<std::size_t>(sent.getEncodedSize()));
+  ASSERT_EQ(sent.encode(data.data(), 0, static_cast<int>(data.size())),
+            static_cast<int>(data.size()));
+  std::string error;
+  const auto decoded = decodeViewStatus(data.data(), data.size(), &error);
+  ASSERT_TRUE(decoded) << error;
+  EXPECT_EQ(decoded->camera_name, sent.camera_name);
+  EXPECT_EQ(decoded->view, sent.view);
+  EXPECT_EQ(decoded->shift_y_px, sent.shift_y_px);
+  EXPECT_EQ(decoded->turn_deg, sent.turn_deg);
+  EXPECT_EQ(decoded->checked_utime, sent.checked_utime);
+
+  auto refused = [&](std::vector<std::uint8_t> bytes_in, const std::string& why) {
+    std::string reason;
+    EXPECT_FALSE(decodeViewStatus(bytes_in.data(), bytes_in.size(), &reason)) << why;
+    EXPECT_NE(reason.find(why), std::string::npos) << reason;
+  };
+  refused({data.begin(), data.end() - 1}, "truncated in the cameras' figures");
+  std::vector<std::uint8_t> longer = data;
+  longer.push_back(0);
+  refused(longer, "bytes left over");
+  std::vector<std::uint8_t> other = data;
+  other[0] ^= 0xFF;
+  refused(other, "fingerprint");
+  std::vector<std::uint8_t> negative = data;
+  const std::size_t count_at = 8 + 8 + 8 + 4 + sent.hostname.size() + 1;
+  negative[count_at] = 0xFF;
+  negative[count_at + 1] = 0xFE;
+  refused(negative, "num_cameras is negative");
+}
+
 }  // namespace
 }  // namespace occmap

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <sys/stat.h>
 
 #include "capture/image_file.h"
@@ -109,6 +110,48 @@ TEST(OccmapControl, SetsAThresholdThatStatusShowsAndAReloadPutsBack) {
   EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
 }
 
+// A knocked camera (sim://room-knock: c1 turned by 1 degree at 2 s) through the log and `occmap
+// status`: found moved, by about the degree it turned, and left out of the maps (view_status_t).
+TEST(OccmapStatus, SaysWhichCameraWasMovedAndHowFarItTurned) {
+  if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
+    GTEST_SKIP() << problem;
+  }
+  TemporaryFolder folder;
+  std::string text = testing::simRoomConfig("udpm://239.255.76.67:7667?ttl=0");
+  for (std::size_t at = text.find("sim://room/"); at != std::string::npos;
+       at = text.find("sim://room/", at)) {
+    text.replace(at, std::string("sim://room/").size(), "sim://room-knock/");
+  }
+  const auto config = folder.write("room.yaml", text);
+  ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "occmapd");
+  ASSERT_TRUE(waitForError(daemon, "ready:", testing::eventually(30s))) << daemon.err();
+  ASSERT_TRUE(
+      waitForError(daemon, "camera c1: its view moved: it turned", testing::eventually(10s)))
+      << daemon.err();
+  EXPECT_EQ(daemon.err().find("camera c0: its view moved"), std::string::npos) << daemon.err();
+
+  bool moved = false;
+  testing::CommandResult result;
+  for (int attempt = 0; attempt < 20 && !moved; ++attempt) {
+    result = runCommand({kOccmap, "status", "--json"});
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    moved = result.out.find(
+                "\"view_name\":[\"as calibrated\",\"moved\",\"as calibrated\","
+                "\"as calibrated\"]") != std::string::npos;
+    if (!moved) std::this_thread::sleep_for(100ms);
+  }
+  ASSERT_TRUE(moved) << result.out;
+  const auto turn = nlohmann::json::parse(result.out)["view_turn_deg"];
+  ASSERT_EQ(turn.size(), 4u) << result.out;
+  EXPECT_NEAR(turn[1].get<double>(), 1.0, 0.1) << result.out;
+  EXPECT_EQ(turn[0].get<double>(), 0.0) << result.out;
+  result = runCommand({kOccmap, "status"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("c1: DEGRADED, MOVED: it turned"), std::string::npos) << result.out;
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
+}
+
 // The light's status (lighting_status_t, docs/lighting.md) through `occmap status`: camera c1's
 // background is a black picture, which no change of light explains, so c1 is degraded (left out
 // of the maps) and said to be; the others' light is as when their backgrounds were taken.
@@ -140,11 +183,18 @@ TEST(OccmapStatus, SaysWhichCameraNoLightExplainsAndTheOthersLight) {
       << result.out;
   EXPECT_NE(result.out.find("\"lighting_adapt\":[true,true,true,true]"), std::string::npos)
       << result.out;
+  // A black picture is no background's view moved (view_status_t).
+  EXPECT_NE(
+      result.out.find(
+          "\"view_name\":[\"as calibrated\",\"unexplained\",\"as calibrated\",\"as calibrated\"]"),
+      std::string::npos)
+      << result.out;
   result = runCommand({kOccmap, "status"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("c1: DEGRADED, no change of light explains its view"),
             std::string::npos)
       << result.out;
+  EXPECT_NE(result.out.find("it is not its background moved"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("c0: light 1.00 x the background's"), std::string::npos) << result.out;
   daemon.signal(SIGTERM);
   EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();

@@ -405,6 +405,35 @@ TEST(OccmapFuse, TheLocalLightKeepsMoreOfTheLitFloorFreeAndFindsEveryObject) {
   EXPECT_GE(local, gain_alone + 2.0);
 }
 
+// A camera knocked on its mount (sim://room-knock: c1 turned by 1 degree at 2 s, frame 60): from
+// that frame on its view is no change of light, so its frames are left out (its cells counted
+// by the others alone, every object still found), and the run says it moved, by about a degree.
+TEST(OccmapFuse, AKnockedCameraIsLeftOutFromTheFrameItMovedAndSaidToHaveTurned) {
+  TemporaryFolder folder;
+  const std::string text = testing::inCoarseMap(
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-knock"));
+  ASSERT_NE(text, "") << "examples/sim-room.yaml changed: not the map inCoarseMap knows";
+  folder.write("knock.yaml", text);
+  constexpr int kFrames = 75;
+  const auto result =
+      runCommand({kOccmap, "fuse", "--config", (folder / "knock.yaml").string(), "--out",
+                  (folder / "maps").string(), "--frames", std::to_string(kFrames)});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("objects found 375 of 375 (100.00 %)"), std::string::npos)
+      << result.out;
+  EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
+      << result.out;
+  const std::string moved =
+      "camera c1: 15 frames left out, no change of light explaining them; "
+      "its view moved at map 60: turned ";
+  const std::size_t at = result.out.find(moved);
+  ASSERT_NE(at, std::string::npos) << result.out;
+  EXPECT_NEAR(std::atof(result.out.c_str() + at + moved.size()), 1.0, 0.1) << result.out;
+  for (const char* steady : {"camera c0:", "camera c2:", "camera c3:"}) {
+    EXPECT_EQ(result.out.find(steady), std::string::npos) << result.out;
+  }
+}
+
 // occmap fuse runs the daemon's kernel; its maps must still be the reference fusion of the same
 // frames, cell for cell, in both carving modes. The simulator is deterministic: frame n of
 // sim://room/cK is what SimRoomReference renders for sequence n.

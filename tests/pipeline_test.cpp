@@ -174,7 +174,8 @@ TEST(Pipeline, UnderChangingLightEachMapIsTheOffLineReplayOfItsFrames) {
       ASSERT_EQ(static_cast<std::int64_t>(frame.sequence), n);
       masks[k].emplace_back(changedMaskBytes(frame.image.width, frame.image.height));
       explained[k].push_back(changed.mark(kernel, k, frame.image, camera.background,
-                                          camera.threshold, masks[k].back().data()));
+                                          camera.threshold, masks[k].back().data(),
+                                          frame.capture_time_us));
     }
   }
   std::vector<CellState> cells(config.map.cellCount());

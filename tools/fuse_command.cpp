@@ -165,6 +165,14 @@ int run(const FuseOptions& o) {
   }
   std::vector<ChangedPixels> changed_pixels;
   for (const RigCamera& camera : cameras) changed_pixels.emplace_back(camera.lighting);
+  // Per camera: the frames no light explained (left out), and the first map at which its view was
+  // found moved.
+  struct ViewReport {
+    std::uint64_t left_out = 0;
+    std::optional<std::uint64_t> moved_at;
+    ViewMotion motion;
+  };
+  std::vector<ViewReport> views(cameras.size());
   std::vector<const std::uint8_t*> masks(cameras.size(), nullptr);
   std::vector<ImageView> live(cameras.size());
   OccupancyMap map(config.map);
@@ -195,8 +203,15 @@ int run(const FuseOptions& o) {
       // A frame the light's model does not explain counts as none, as in the daemon.
       if (status == FrameSource::Status::kFrame &&
           changed_pixels[k].mark(kernel, k, frame.image, cameras[k].background,
-                                 cameras[k].threshold, changed[k].data())) {
+                                 cameras[k].threshold, changed[k].data(), frame.capture_time_us)) {
         masks[k] = changed[k].data();
+      }
+      if (status == FrameSource::Status::kFrame && !masks[k]) {
+        ++views[k].left_out;
+        if (changed_pixels[k].view() == ViewState::kMoved && !views[k].moved_at) {
+          views[k].moved_at = maps;
+          views[k].motion = changed_pixels[k].motion();
+        }
       }
     }
     if (ended) break;
@@ -255,6 +270,22 @@ int run(const FuseOptions& o) {
         static_cast<unsigned long long>(score.objects_found),
         static_cast<unsigned long long>(score.objects), percent(score.objects_found, score.objects),
         percent(score.clear_free, score.clear_cells));
+  }
+  for (std::size_t k = 0; k < cameras.size(); ++k) {
+    const ViewReport& view = views[k];
+    if (view.left_out == 0) continue;
+    std::printf("camera %s: %llu frames left out, no change of light explaining them",
+                cameras[k].name.c_str(), static_cast<unsigned long long>(view.left_out));
+    if (view.moved_at) {
+      const CameraTurn turn = cameraTurn(*cameras[k].camera, view.motion);
+      std::printf(
+          "; its view moved at map %llu: turned %.2f degrees (the image shifted %.1f px "
+          "right and %.1f px down at its centre, %.2f px off a turn alone): put the camera "
+          "back or calibrate it again",
+          static_cast<unsigned long long>(*view.moved_at), turn.degrees(), view.motion.shift_x_px,
+          view.motion.shift_y_px, turn.residual_px);
+    }
+    std::printf("\n");
   }
   return kExitOk;
 }

@@ -10,6 +10,7 @@
 #include <occmap/lighting_status_t.hpp>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
+#include <occmap/view_status_t.hpp>
 
 #include "base/clock.h"
 #include "config/config.h"
@@ -39,7 +40,8 @@ std::int64_t randomRequestId() {
   return static_cast<std::int64_t>((high << 32 | low) & 0x7fffffffffffffffull);
 }
 
-// A message occmapd publishes with each status_t (control_status_t, lighting_status_t): the one
+// A message occmapd publishes with each status_t (control_status_t, lighting_status_t,
+// view_status_t): the one
 // that goes with our answer has our request id and the answering daemon's hostname. It may come
 // before or after the status, so those with our id are kept (a few: several daemons may answer,
 // strangers may forge), each checked as carefully as the status (status_message.h).
@@ -110,9 +112,12 @@ int run(const StatusOptions& o) {
                                                 decodeControlStatus);
   Companions<occmap::lighting_status_t> lightings(lightingStatusChannel(o.channel), request_id,
                                                   decodeLightingStatus);
+  Companions<occmap::view_status_t> views(viewStatusChannel(o.channel), request_id,
+                                          decodeViewStatus);
   const std::string* unsubscribed = !subscribed                 ? &o.channel
                                     : !controls.subscribe(bus)  ? &controls.channel()
                                     : !lightings.subscribe(bus) ? &lightings.channel()
+                                    : !views.subscribe(bus)     ? &views.channel()
                                                                 : nullptr;
   if (unsubscribed != nullptr) {
     std::fprintf(stderr, "occmap status: failed: cannot subscribe to %s at %s\n",
@@ -121,6 +126,7 @@ int run(const StatusOptions& o) {
   }
   const auto controlOfAnswer = [&] { return controls.of(answer->hostname); };
   const auto lightingOfAnswer = [&] { return lightings.of(answer->hostname); };
+  const auto viewOfAnswer = [&] { return views.of(answer->hostname); };
 
   const std::string request_channel = statusRequestChannel(o.channel);
   std::vector<std::uint8_t> buffer;
@@ -129,12 +135,14 @@ int run(const StatusOptions& o) {
   const auto deadline =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.timeout));
   auto next_request = start;
-  // Once the status has come, its control_status_t and lighting_status_t get this long more (within
+  // Once the status has come, its control_status_t, lighting_status_t and view_status_t get this
+  // long more (within
   // the deadline): the daemon sends them right after the status, and a daemon from before them
   // never does, which must not cost its user the whole timeout.
   constexpr auto kControlGrace = std::chrono::milliseconds(500);
   std::optional<Clock::time_point> control_deadline;
-  while (!answer || controlOfAnswer() == nullptr || lightingOfAnswer() == nullptr) {
+  while (!answer || controlOfAnswer() == nullptr || lightingOfAnswer() == nullptr ||
+         viewOfAnswer() == nullptr) {
     const auto now = Clock::now();
     if (answer && !control_deadline) control_deadline = std::min(deadline, now + kControlGrace);
     if (now >= (control_deadline ? *control_deadline : deadline)) break;
@@ -189,10 +197,11 @@ int run(const StatusOptions& o) {
   // the status alone, as such a daemon always gave it.
   const occmap::control_status_t* control = controlOfAnswer();
   const occmap::lighting_status_t* lighting = lightingOfAnswer();
+  const occmap::view_status_t* view = viewOfAnswer();
   if (o.json) {
-    std::printf("%s\n", formatStatusJson(*answer, control, lighting).c_str());
+    std::printf("%s\n", formatStatusJson(*answer, control, lighting, view).c_str());
   } else {
-    std::printf("%s", formatStatusTable(*answer, control, lighting).c_str());
+    std::printf("%s", formatStatusTable(*answer, control, lighting, view).c_str());
   }
   return kExitOk;
 }

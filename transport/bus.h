@@ -44,5 +44,8 @@ std::string statusRequestChannel(const std::string& status_channel);
 // Where occmapd publishes lighting_status_t, with each status_t: the status channel's name +
 // "_LIGHTING" (OCCMAP_STATUS_LIGHTING by default).
 std::string lightingStatusChannel(const std::string& status_channel);
+// Where occmapd publishes view_status_t, with each status_t: the status channel's name + "_VIEW"
+// (OCCMAP_STATUS_VIEW by default).
+std::string viewStatusChannel(const std::string& status_channel);
 
 }  // namespace occmap

@@ -14,6 +14,10 @@ std::string lightingStatusChannel(const std::string& status_channel) {
   return status_channel + "_LIGHTING";
 }
 
+std::string viewStatusChannel(const std::string& status_channel) {
+  return status_channel + "_VIEW";
+}
+
 namespace {
 
 // LCM's C callback. Subscriptions go through LCM's C API rather than lcm::LCM::subscribe: that

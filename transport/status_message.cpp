@@ -108,7 +108,35 @@ const char* lightingStatusLayoutError(const std::uint8_t* data, std::size_t size
   return "";
 }
 
+// The same for view_status_t (lcmtypes/view_status_t.lcm).
+const char* viewStatusLayoutError(const std::uint8_t* data, std::size_t size) {
+  WireReader in(data, size);
+  std::int64_t fingerprint = 0;
+  if (!in.read(fingerprint)) return "too short for an LCM message";
+  if (fingerprint != occmap::view_status_t::getHash()) {
+    return "not an occmap.view_status_t (fingerprint)";
+  }
+  if (!readAll<std::int64_t, std::int64_t>(in)) return "truncated in utime or request_id";
+  if (!readStrings(in, 1)) return "hostname is not a string that fits";
+  std::int16_t cameras = 0;
+  if (!in.read(cameras)) return "truncated before num_cameras";
+  if (cameras < 0) return "num_cameras is negative";
+  if (!readStrings(in, cameras)) return "a camera's name is not a string that fits";
+  // view (int8), shift_x_px, shift_y_px, turn_deg, residual_px (double), checked_utime (int64),
+  // each num_cameras long: at most 32767 * 41 bytes, no overflow.
+  if (!in.skip(static_cast<std::size_t>(cameras) * (1 + 4 * 8 + 8))) {
+    return "truncated in the cameras' figures";
+  }
+  if (in.remaining() != 0) return "bytes left over: the counts do not add up to the size";
+  return "";
+}
+
 }  // namespace
+
+std::optional<occmap::view_status_t> decodeViewStatus(const std::uint8_t* data, std::size_t size,
+                                                      std::string* error) {
+  return decodeWalked<occmap::view_status_t>(data, size, error, viewStatusLayoutError);
+}
 
 std::optional<occmap::lighting_status_t> decodeLightingStatus(const std::uint8_t* data,
                                                               std::size_t size,

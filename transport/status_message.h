@@ -14,6 +14,7 @@
 #include <occmap/control_status_t.hpp>
 #include <occmap/lighting_status_t.hpp>
 #include <occmap/status_t.hpp>
+#include <occmap/view_status_t.hpp>
 
 namespace occmap {
 
@@ -37,5 +38,10 @@ std::optional<occmap::control_status_t> decodeControlStatus(const std::uint8_t* 
 std::optional<occmap::lighting_status_t> decodeLightingStatus(const std::uint8_t* data,
                                                               std::size_t size,
                                                               std::string* error = nullptr);
+
+// A view_status_t, or nothing when the bytes are not exactly one; then `error`, if given, says
+// why. Checked the same way as a status_t.
+std::optional<occmap::view_status_t> decodeViewStatus(const std::uint8_t* data, std::size_t size,
+                                                      std::string* error = nullptr);
 
 }  // namespace occmap

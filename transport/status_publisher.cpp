@@ -12,6 +12,7 @@ StatusPublisher::StatusPublisher(std::string status_channel, std::size_t cameras
     : status_channel_(std::move(status_channel)),
       control_status_channel_(controlStatusChannel(status_channel_)),
       lighting_status_channel_(lightingStatusChannel(status_channel_)),
+      view_status_channel_(viewStatusChannel(status_channel_)),
       samples_(kRateSamples, Sample{now_ns, 0, std::vector<std::uint64_t>(cameras)}) {
   status_.cameras.resize(cameras);
   for (occmap::camera_status_t& camera : status_.cameras) camera.last_error.reserve(kMaxErrorText);
@@ -117,6 +118,31 @@ void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t
   buffer_.resize(static_cast<std::size_t>(lighting_status_.getEncodedSize()));
   lighting_status_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
   if (!bus.publish(lighting_status_channel_, buffer_)) ++errors_;
+
+  view_status_.utime = status_.utime;
+  view_status_.request_id = request_id;
+  view_status_.hostname = report.hostname;
+  view_status_.num_cameras = static_cast<std::int16_t>(cameras);
+  view_status_.camera_name.resize(cameras);
+  view_status_.view.resize(cameras);
+  view_status_.shift_x_px.resize(cameras);
+  view_status_.shift_y_px.resize(cameras);
+  view_status_.turn_deg.resize(cameras);
+  view_status_.residual_px.resize(cameras);
+  view_status_.checked_utime.resize(cameras);
+  for (std::size_t k = 0; k < cameras; ++k) {
+    const CameraReport& c = report.cameras[k];
+    view_status_.camera_name[k] = c.name;
+    view_status_.view[k] = c.view;
+    view_status_.shift_x_px[k] = c.view_shift_x_px;
+    view_status_.shift_y_px[k] = c.view_shift_y_px;
+    view_status_.turn_deg[k] = c.view_turn_deg;
+    view_status_.residual_px[k] = c.view_residual_px;
+    view_status_.checked_utime[k] = c.view_checked_utime;
+  }
+  buffer_.resize(static_cast<std::size_t>(view_status_.getEncodedSize()));
+  view_status_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));
+  if (!bus.publish(view_status_channel_, buffer_)) ++errors_;
 }
 
 }  // namespace occmap

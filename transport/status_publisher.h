@@ -1,10 +1,10 @@
 #pragma once
-// The daemon's status onto the bus: status_t, and beside it control_status_t and lighting_status_t
-// (types of their own, so that status_t keeps the fingerprint every reader built before them
-// decodes; lcmtypes/control_status_t.lcm, lighting_status_t.lcm). The pipeline fills a DaemonReport
-// of plain counters; this turns it into the messages, with rates measured over the last few
-// periodic statuses, and sends them. Both messages are filled in place: once their strings and
-// vectors have their size (the first time), publishing allocates nothing.
+// The daemon's status onto the bus: status_t, and beside it control_status_t, lighting_status_t
+// and view_status_t (types of their own, so that status_t keeps the fingerprint every reader built
+// before them decodes; lcmtypes/control_status_t.lcm, lighting_status_t.lcm, view_status_t.lcm).
+// The pipeline fills a DaemonReport of plain counters; this turns it into the messages, with rates
+// measured over the last few periodic statuses, and sends them. The messages are filled in place:
+// once their strings and vectors have their size (the first time), publishing allocates nothing.
 
 #include <cstddef>
 #include <cstdint>
@@ -14,6 +14,7 @@
 #include <occmap/control_status_t.hpp>
 #include <occmap/lighting_status_t.hpp>
 #include <occmap/status_t.hpp>
+#include <occmap/view_status_t.hpp>
 
 #include "core/map_frame.h"
 #include "transport/bus.h"
@@ -64,6 +65,13 @@ struct CameraReport {
   double lighting_agreement = 1.0;
   bool lighting_explained = true;
   std::uint64_t unexplained_frames = 0;
+  // Whether it looks where its calibration says (view_status_t; its VIEW constants).
+  std::int8_t view = 0;
+  double view_shift_x_px = 0;
+  double view_shift_y_px = 0;
+  double view_turn_deg = 0;
+  double view_residual_px = 0;
+  std::int64_t view_checked_utime = 0;
 };
 
 struct DaemonReport {
@@ -104,11 +112,13 @@ class StatusPublisher {
   std::string status_channel_;
   std::string control_status_channel_;
   std::string lighting_status_channel_;
+  std::string view_status_channel_;
   std::vector<Sample> samples_;
   std::size_t oldest_ = 0;
   occmap::status_t status_{};
   occmap::control_status_t control_status_{};
   occmap::lighting_status_t lighting_status_{};
+  occmap::view_status_t view_status_{};
   std::vector<std::uint8_t> buffer_;
   std::uint64_t errors_ = 0;
 };

@@ -13,6 +13,21 @@
 namespace occmap {
 namespace {
 
+// The index of camera `name` in `view`'s arrays, or kNoView (no view_status_t, a daemon from
+// before it, or a hand-made one whose arrays are short).
+constexpr std::size_t kNoView = static_cast<std::size_t>(-1);
+std::size_t viewIndex(const occmap::view_status_t* view, const std::string& name) {
+  if (view == nullptr) return kNoView;
+  const std::size_t cameras =
+      std::min({view->camera_name.size(), view->view.size(), view->shift_x_px.size(),
+                view->shift_y_px.size(), view->turn_deg.size(), view->residual_px.size(),
+                view->checked_utime.size()});
+  for (std::size_t v = 0; v < cameras; ++v) {
+    if (view->camera_name[v] == name) return v;
+  }
+  return kNoView;
+}
+
 // printf into a string of whatever length the result has: a row with a long camera name must not
 // be cut short (losing its newline, running into the next row).
 __attribute__((format(printf, 1, 2))) std::string format(const char* pattern, ...) {
@@ -149,7 +164,8 @@ std::string cameraStateName(int state) {
 }
 
 std::string formatStatusTable(const occmap::status_t& s, const occmap::control_status_t* control,
-                              const occmap::lighting_status_t* lighting) {
+                              const occmap::lighting_status_t* lighting,
+                              const occmap::view_status_t* view) {
   std::string text =
       "occmapd on " + (s.hostname.empty() ? std::string("?") : terminalText(s.hostname));
   if (!s.config_file.empty()) text += " (config " + terminalText(s.config_file) + ")";
@@ -188,11 +204,25 @@ std::string formatStatusTable(const occmap::status_t& s, const occmap::control_s
       text += names[k] + ": last error: " + terminalText(c.last_error) + "\n";
   }
   if (control != nullptr) text += formatControlStatusTable(*control);
-  if (lighting != nullptr) text += formatLightingStatusTable(*lighting);
+  if (lighting != nullptr) text += formatLightingStatusTable(*lighting, view);
   return text;
 }
 
-std::string formatLightingStatusTable(const occmap::lighting_status_t& l) {
+std::string viewName(int view) {
+  switch (view) {
+    case occmap::view_status_t::AS_CALIBRATED:
+      return "as calibrated";
+    case occmap::view_status_t::UNEXPLAINED:
+      return "unexplained";
+    case occmap::view_status_t::MOVED:
+      return "moved";
+    default:
+      return format("view %d", view);
+  }
+}
+
+std::string formatLightingStatusTable(const occmap::lighting_status_t& l,
+                                      const occmap::view_status_t* view) {
   // The arrays are as long as num_cameras in any message that decodes; a hand-made one may not be.
   const std::size_t cameras =
       std::min({l.camera_name.size(), l.adapt.size(), l.gain.size(), l.agreement.size(),
@@ -204,6 +234,20 @@ std::string formatLightingStatusTable(const occmap::lighting_status_t& l) {
     if (l.explained[k] != 0) {
       text += format("%s: light %.2f x the background's (%.0f %% of pixels agree)", name.c_str(),
                      l.gain[k], 100 * l.agreement[k]);
+    } else if (const std::size_t v = viewIndex(view, l.camera_name[k]);
+               v != kNoView && view->view[v] == occmap::view_status_t::MOVED) {
+      text += format(
+          "%s: DEGRADED, MOVED: it turned %.2f degrees on its mount (the image shifted %.1f px "
+          "right and %.1f px down, %.2f px off a turn alone); its calibration no longer holds "
+          "and its cells are unseen: put it back, or calibrate it again and reload",
+          name.c_str(), view->turn_deg[v], view->shift_x_px[v], view->shift_y_px[v],
+          view->residual_px[v]);
+    } else if (v != kNoView && view->view[v] == occmap::view_status_t::UNEXPLAINED) {
+      text += format(
+          "%s: DEGRADED, no change of light explains its view (%.0f %% of pixels agree) and it "
+          "is not its background moved: covered, lights out, crowded, or changed beyond "
+          "recognition; its cells are unseen",
+          name.c_str(), 100 * l.agreement[k]);
     } else {
       text += format(
           "%s: DEGRADED, no change of light explains its view (%.0f %% of pixels "
@@ -240,7 +284,8 @@ std::string formatControlStatusTable(const occmap::control_status_t& c) {
 }
 
 std::string formatStatusJson(const occmap::status_t& s, const occmap::control_status_t* control,
-                             const occmap::lighting_status_t* lighting) {
+                             const occmap::lighting_status_t* lighting,
+                             const occmap::view_status_t* view) {
   // ordered_json: the keys in the order of status_t's fields, as a reader of the LCM type expects.
   nlohmann::ordered_json j = {
       {"utime", s.utime},
@@ -300,6 +345,18 @@ std::string formatStatusJson(const occmap::status_t& s, const occmap::control_st
     nlohmann::ordered_json& explained = j["lighting_explained"] = nlohmann::ordered_json::array();
     for (const std::int8_t yes : l.explained) explained.push_back(yes != 0);
     j["lighting_unexplained_frames"] = l.unexplained_frames;
+  }
+  if (view != nullptr) {
+    const occmap::view_status_t& v = *view;
+    j["view_camera_name"] = v.camera_name;
+    j["view"] = v.view;
+    nlohmann::ordered_json& names = j["view_name"] = nlohmann::ordered_json::array();
+    for (const std::int8_t state : v.view) names.push_back(viewName(state));
+    j["view_shift_x_px"] = v.shift_x_px;
+    j["view_shift_y_px"] = v.shift_y_px;
+    j["view_turn_deg"] = v.turn_deg;
+    j["view_residual_px"] = v.residual_px;
+    j["view_checked_utime"] = v.checked_utime;
   }
   // The texts are anyone's on the network: bytes that are not UTF-8 become U+FFFD (rather than an
   // exception), and ensure_ascii writes every character outside printable ASCII as \uXXXX, so that

@@ -12,22 +12,26 @@
 #include <occmap/control_status_t.hpp>
 #include <occmap/lighting_status_t.hpp>
 #include <occmap/status_t.hpp>
+#include <occmap/view_status_t.hpp>
 
 namespace occmap {
 
 // A few lines on the daemon (state, uptime, maps published, publish errors, maps/s, fusion p50 and
 // p99), then a table with one row per camera: name, state, frames in, dropped, fps, and the age of
 // its last capture at the time of the status. With `control` (the control_status_t published with
-// it), then formatControlStatusTable(*control); with `lighting`, formatLightingStatusTable. Ends
-// with a newline.
+// it), then formatControlStatusTable(*control); with `lighting`, formatLightingStatusTable (with
+// `view`, if given). Ends with a newline.
 std::string formatStatusTable(const occmap::status_t& status,
                               const occmap::control_status_t* control = nullptr,
-                              const occmap::lighting_status_t* lighting = nullptr);
+                              const occmap::lighting_status_t* lighting = nullptr,
+                              const occmap::view_status_t* view = nullptr);
 
 // Each camera's light (docs/lighting.md), a line per camera: the gain against the background's
-// light and the share of pixels that agreed, or why it is degraded; nothing for cameras whose model
-// is off. Ends with a newline, or is empty.
-std::string formatLightingStatusTable(const occmap::lighting_status_t& lighting);
+// light and the share of pixels that agreed, or why it is degraded (with `view`, the
+// view_status_t published with it: whether the camera was moved, and how far it turned);
+// nothing for cameras whose model is off. Ends with a newline, or is empty.
+std::string formatLightingStatusTable(const occmap::lighting_status_t& lighting,
+                                      const occmap::view_status_t* view = nullptr);
 
 // What became of control requests, as lines for the status table: one with the six counters and,
 // when control is enabled, one per camera with its threshold and background. Ends with a newline.
@@ -39,10 +43,17 @@ std::string formatControlStatusTable(const occmap::control_status_t& control);
 // ("control_enabled", the six counters as "control_disabled" ... "control_accepted", and the
 // arrays "camera_name", "camera_threshold", "camera_background_utime"). With `lighting`, its
 // arrays as "lighting_adapt", "lighting_gain", "lighting_agreement", "lighting_explained" and
-// "lighting_unexplained_frames", in the order of its camera names ("lighting_camera_name").
+// "lighting_unexplained_frames", in the order of its camera names ("lighting_camera_name"). With
+// `view`, its arrays as "view_camera_name", "view" (the numbers), "view_name" ("as calibrated",
+// "unexplained", "moved"), "view_shift_x_px", "view_shift_y_px", "view_turn_deg",
+// "view_residual_px" and "view_checked_utime".
 std::string formatStatusJson(const occmap::status_t& status,
                              const occmap::control_status_t* control = nullptr,
-                             const occmap::lighting_status_t* lighting = nullptr);
+                             const occmap::lighting_status_t* lighting = nullptr,
+                             const occmap::view_status_t* view = nullptr);
+
+// "as calibrated", "unexplained", "moved" (view_status_t); "view N" otherwise.
+std::string viewName(int view);
 
 // A text from the network (a host or camera name, an error) as it may be printed on a terminal:
 // control characters and bytes that are not UTF-8 become '?', so an escape sequence shows as text.
