@@ -279,11 +279,12 @@ void litCase(benchmark::State& state, const std::string& config, const std::stri
   for (const auto& mask : masks) changed_masks.push_back(mask.data());
   std::vector<Image> backgrounds;
   std::vector<ChangedPixels> changed;
-  for (const ImageView& view : data.backgrounds) {
+  for (std::size_t k = 0; k < cameras; ++k) {
+    const ImageView& view = data.backgrounds[k];
     Image copy(view.width, view.height);
     for (int v = 0; v < view.height; ++v) std::copy_n(view.row(v), view.width, copy.row(v));
     backgrounds.push_back(std::move(copy));
-    changed.emplace_back(LightingSettings{});
+    changed.emplace_back(LightingSettings{}, data.rig->renderer(k).camera());
   }
   std::vector<CellState> out(data.rig->config().map.cellCount());
   std::size_t i = 0;

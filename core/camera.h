@@ -43,6 +43,9 @@ class Camera {
   // The stream pixel containing stream coordinates, if it lies in the stream's bounds.
   std::optional<int> pixelIndexAt(const Eigen::Vector2d& stream) const;
   Eigen::Vector3d centreMetres() const;
+  // The same camera turned on its mount by `turn` (axis times angle in radians, camera
+  // coordinates): its coordinates become turn x the old ones, about the same centre.
+  Camera turned(const Eigen::Vector3d& turn) const;
 
  private:
   std::shared_ptr<const CameraModel> model_;

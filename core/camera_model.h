@@ -1,5 +1,6 @@
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string_view>
 
@@ -66,6 +67,8 @@ class CameraModel {
   // Closed form: the pixel's ray meets the horizontal plane at height z in front of the camera, or
   // there is no result (a ray parallel to the plane or one that reaches it only behind the camera).
   std::optional<PlanePoint> imageToPlane(const Eigen::Vector2d& pixel, double z) const;
+  // The same lens at another pose (a camera knocked and re-posed, core/view_motion.h).
+  virtual std::shared_ptr<const CameraModel> withPose(const Pose& pose) const = 0;
 
  protected:
   // Lens model from camera coordinates (zc > 0 guaranteed) to a pixel; empty beyond the valid

@@ -3,17 +3,21 @@
 // `occmap fuse` repeats it, so that off-line maps equal live ones: the light's model (when the
 // config adapts to the light), the difference into changed-pixel tiles, and the model's drift.
 // When the model does not explain a frame, whether the camera was moved (core/view_motion.h), at
-// most once a second of capture time.
+// most once a second of capture time, and when a moved camera is steady enough to be re-posed
+// (core/repose.h: the host builds the re-posed camera and hands it back).
 // No I/O, no threads; the model is made at the first frame and again only when the background is
 // replaced (a recapture), never per frame.
 
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <utility>
 
+#include "core/camera.h"
 #include "core/fusion_kernel.h"
 #include "core/image.h"
 #include "core/lighting_model.h"
+#include "core/repose.h"
 #include "core/view_motion.h"
 
 namespace occmap {
@@ -23,7 +27,9 @@ enum class ViewState : std::uint8_t { kAsCalibrated = 0, kUnexplained = 1, kMove
 
 class ChangedPixels {
  public:
-  explicit ChangedPixels(const LightingSettings& lighting) : settings_(lighting) {}
+  // `camera`: the camera as its carve table was built (the turns of a moved view are its).
+  ChangedPixels(const LightingSettings& lighting, Camera camera)
+      : settings_(lighting), camera_(std::move(camera)) {}
 
   // Marks camera k's changed pixels of `live`, captured at `time_us`, into `changed`
   // (changedMaskBytes of the stream). False when the light's model does not explain the frame:
@@ -45,6 +51,8 @@ class ChangedPixels {
       model_background_ = &background;
       view_ = ViewState::kAsCalibrated;
       checked_us_.reset();
+      repose_.reset();
+      repose_turn_.reset();
     }
     const ImageView corrected = model_->correct(live);
     kernel.markChangedPixels(k, corrected, model_->background(), threshold, changed);
@@ -58,7 +66,12 @@ class ChangedPixels {
       // milliseconds each, of frames that do not count anyway.
       motion_ = view_motion_->estimate(live);
       view_ = motion_.moved ? ViewState::kMoved : ViewState::kUnexplained;
+      turn_ = motion_.moved ? cameraTurn(camera_, motion_) : CameraTurn{};
       checked_us_ = time_us;
+      if (auto turn =
+              repose_.check(time_us, motion_.moved && turn_.found, turn_.turn, turn_.residual_px)) {
+        repose_turn_ = *turn;
+      }
     }
     return model_->explained();
   }
@@ -69,18 +82,32 @@ class ChangedPixels {
   // capture time checkedUs().
   ViewState view() const { return view_; }
   const ViewMotion& motion() const { return motion_; }
+  const CameraTurn& turn() const { return turn_; }
   std::int64_t checkedUs() const { return checked_us_.value_or(0); }
+  const Camera& camera() const { return camera_; }
+
+  // Once a moved view has been steady (ReposePolicy): the turn to re-pose the camera by, given
+  // once. The host makes the re-posed camera (reposeCamera), calls reposed() with it, and
+  // differences the next frames against its background.
+  std::optional<Eigen::Vector3d> takeReposeTurn() {
+    return std::exchange(repose_turn_, std::nullopt);
+  }
+  void reposed(const Camera& camera) { camera_ = camera; }
 
   static constexpr std::int64_t kViewCheckPeriodUs = 1'000'000;
 
  private:
   LightingSettings settings_;
+  Camera camera_;
   std::optional<LightingModel> model_;
   std::optional<ViewMotionEstimator> view_motion_;
   const Image* model_background_ = nullptr;
   ViewState view_ = ViewState::kAsCalibrated;
   ViewMotion motion_;
+  CameraTurn turn_;
   std::optional<std::int64_t> checked_us_;
+  ReposePolicy repose_;
+  std::optional<Eigen::Vector3d> repose_turn_;
 };
 
 }  // namespace occmap

@@ -63,9 +63,11 @@ void markChangedPixels(ImageView live, ImageView background, int threshold, std:
   }
 }
 
-void FusionKernel::markChangedPixels(std::size_t k, ImageView live, ImageView background,
-                                     int threshold, std::uint8_t* changed) const {
-  const CameraTable& camera = cameras_.at(k);
+std::uint32_t FusionKernel::markChangedPixels(std::size_t k, ImageView live, ImageView background,
+                                              int threshold, std::uint8_t* changed) const {
+  const std::shared_ptr<const CameraTable> table =
+      cameras_.at(k).table.load(std::memory_order_acquire);
+  const CameraTable& camera = *table;
   for (const ImageView* image : {&live, &background}) {
     if (image->width != camera.image_width || image->height != camera.image_height) {
       throw std::invalid_argument("markChangedPixels: image size differs from the table's");
@@ -78,6 +80,27 @@ void FusionKernel::markChangedPixels(std::size_t k, ImageView live, ImageView ba
     fusion_steps::markChangedTilesScalar(live, background, threshold, camera.needed_strips.data(),
                                          changed);
   }
+  return camera.generation;
+}
+
+void FusionKernel::replaceCamera(std::size_t k, const CarveTable& table) {
+  const std::shared_ptr<const CameraTable> old =
+      cameras_.at(k).table.load(std::memory_order_acquire);
+  if (table.map().cellCount() != cell_count_) {
+    throw std::invalid_argument("replaceCamera: a carve table of another map");
+  }
+  auto replacement = std::make_shared<CameraTable>(turnAround(table));
+  if (replacement->image_width != old->image_width ||
+      replacement->image_height != old->image_height) {
+    throw std::invalid_argument("replaceCamera: a carve table of another image size");
+  }
+  replacement->generation = old->generation + 1;
+  // Release: the table is whole before a reader can load it.
+  cameras_[k].table.store(std::move(replacement), std::memory_order_release);
+}
+
+std::uint32_t FusionKernel::generation(std::size_t k) const {
+  return cameras_.at(k).table.load(std::memory_order_acquire)->generation;
 }
 
 FusionKernel::FusionKernel(std::span<const CarveTable> tables, KernelPath path) : path_(path) {
@@ -94,12 +117,15 @@ FusionKernel::FusionKernel(std::span<const CarveTable> tables, KernelPath path) 
   blocked_.assign((words + 1) * 64, 0);
   free_.assign(words, 0);
   seen_.assign(words, 0);
-  for (const CarveTable& table : tables) {
-    if (table.map().cellCount() != cell_count_) {
+  cameras_ = std::vector<CameraSlot>(tables.size());
+  fusing_.resize(tables.size());
+  for (std::size_t k = 0; k < tables.size(); ++k) {
+    if (tables[k].map().cellCount() != cell_count_) {
       throw std::invalid_argument("carve tables of different maps");
     }
-    cameras_.push_back(turnAround(table));
-    changed_tiles_.resize(std::max(changed_tiles_.size(), cameras_.back().tiles.size()));
+    auto camera = std::make_shared<const CameraTable>(turnAround(tables[k]));
+    changed_tiles_.resize(std::max(changed_tiles_.size(), camera->tiles.size()));
+    cameras_[k].table.store(std::move(camera), std::memory_order_release);
   }
 }
 
@@ -250,7 +276,9 @@ FusionKernel::CameraTable FusionKernel::turnAround(const CarveTable& table) {
 std::size_t FusionKernel::tableBytes() const {
   std::size_t bytes = 0;
   auto add = [&](const auto& v) { bytes += v.size() * sizeof(v[0]); };
-  for (const CameraTable& camera : cameras_) {
+  for (const CameraSlot& slot : cameras_) {
+    const std::shared_ptr<const CameraTable> table = slot.table.load(std::memory_order_acquire);
+    const CameraTable& camera = *table;
     add(camera.needed_strips);
     add(camera.tiles);
     add(camera.starts);
@@ -278,8 +306,7 @@ std::uint8_t FusionKernel::nextStamp() {
   return stamp_;
 }
 
-void FusionKernel::blockCells(std::size_t k, const std::uint8_t* changed) {
-  const CameraTable& camera = cameras_[k];
+void FusionKernel::blockCells(const CameraTable& camera, const std::uint8_t* changed) {
   const fusion_steps::TileLists lists{camera.rule == CarveRule::kEveryPixel,
                                       camera.tiles.data(),
                                       camera.tiles.size(),
@@ -302,8 +329,10 @@ void FusionKernel::blockCells(std::size_t k, const std::uint8_t* changed) {
       lists, changed, blocking);
 }
 
-void FusionKernel::fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out) {
-  if (changed.size() != cameras_.size() || out.size() != cell_count_) {
+void FusionKernel::fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out,
+                        std::span<const std::uint32_t> generations) {
+  if (changed.size() != cameras_.size() || out.size() != cell_count_ ||
+      (!generations.empty() && generations.size() != cameras_.size())) {
     throw std::invalid_argument("fuse: one mask per camera and one state per cell");
   }
   // The map starts occupied where a live camera sees it (the paper), unseen elsewhere; each live
@@ -312,8 +341,12 @@ void FusionKernel::fuse(std::span<const std::uint8_t* const> changed, std::span<
   std::fill(seen_.begin(), seen_.end(), 0);
   for (std::size_t k = 0; k < cameras_.size(); ++k) {
     if (changed[k] == nullptr) continue;
-    const CameraTable& camera = cameras_[k];
-    blockCells(k, changed[k]);
+    fusing_[k] = cameras_[k].table.load(std::memory_order_acquire);
+    const CameraTable& camera = *fusing_[k];
+    if (!generations.empty() && generations[k] != camera.generation) continue;
+    // A replaced table may have more tiles than any before (an allocation once, after a re-pose).
+    if (changed_tiles_.size() < camera.tiles.size()) changed_tiles_.resize(camera.tiles.size());
+    blockCells(camera, changed[k]);
     (path_ == KernelPath::kSimd ? fusion_steps::clearUnblocked
                                 : fusion_steps::clearUnblockedScalar)(
         blocked_.data(), stamp_, camera.seen.data(), free_.data(), seen_.data(), camera.seen_begin,

@@ -1,7 +1,9 @@
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -58,15 +60,27 @@ class FusionKernel {
   // shelves, ceiling) are written unchanged without being read. Safe to call from one thread per
   // camera while another runs fuse(). Throws std::invalid_argument when an image's size is not the
   // camera's table's.
-  void markChangedPixels(std::size_t camera, ImageView live, ImageView background, int threshold,
-                         std::uint8_t* changed) const;
+  // Returns the generation of the camera's table it used (see replaceCamera).
+  std::uint32_t markChangedPixels(std::size_t camera, ImageView live, ImageView background,
+                                  int threshold, std::uint8_t* changed) const;
 
   // changed[k]: camera k's changed-pixel mask (markChangedPixels), or nullptr when camera k is not
   // in this frame set (down or late): then its cells count only if another camera sees them.
-  // `out` has the map's cell count.
-  void fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out);
+  // `out` has the map's cell count. With `generations` (one per camera: what markChangedPixels
+  // returned for each mask), a mask marked under another table than the one fuse() finds is left
+  // out like a missing one.
+  void fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out,
+            std::span<const std::uint32_t> generations = {});
 
   std::size_t cameraCount() const { return cameras_.size(); }
+
+  // Camera k's table replaced by one for the same map and image size (a camera re-posed after a
+  // knock, core/repose.h); its generation goes up by one. Safe while another thread runs fuse()
+  // and others mark other cameras' pixels; camera k's own markChangedPixels must be called by the
+  // calling thread (the camera's capture thread) or not at all meanwhile. Throws
+  // std::invalid_argument for a table of another map or size.
+  void replaceCamera(std::size_t camera, const CarveTable& table);
+  std::uint32_t generation(std::size_t camera) const;
   // Bytes of the turned-around tables (what fuse() may read besides the masks).
   std::size_t tableBytes() const;
 
@@ -112,17 +126,26 @@ class FusionKernel {
     std::vector<std::uint64_t> seen;  // bit per cell: the camera sees it
     std::size_t seen_begin = 0;       // words of `seen` with a bit set: [seen_begin, seen_end)
     std::size_t seen_end = 0;
+    std::uint32_t generation = 0;  // replaceCamera's count
+  };
+  // Each camera's table, replaced whole (replaceCamera) while other threads may read the old one:
+  // they hold it as long as they use it.
+  struct CameraSlot {
+    std::atomic<std::shared_ptr<const CameraTable>> table;
   };
   static CameraTable turnAround(const CarveTable& table);
-  void blockCells(std::size_t camera, const std::uint8_t* changed);
+  void blockCells(const CameraTable& camera, const std::uint8_t* changed);
   std::uint8_t nextStamp();
 
   KernelPath path_;
   std::size_t cell_count_ = 0;
-  std::vector<CameraTable> cameras_;
+  std::vector<CameraSlot> cameras_;  // sized once: the slots never move
+  // fuse()'s own hold on each table it fuses (fusion thread only; no allocation per map).
+  std::vector<std::shared_ptr<const CameraTable>> fusing_;
   std::vector<std::uint8_t> blocked_;  // per cell (+ a sink): stamp of the camera that blocked it
   std::uint8_t stamp_ = 0;
   std::vector<std::uint32_t> changed_tiles_;  // blockCells' scratch: the most tiles of any camera
+                                              // (grown by fuse() after a replaceCamera)
   std::vector<std::uint64_t> free_;           // bit per cell, this frame set
   std::vector<std::uint64_t> seen_;           // bit per cell: some live camera sees it
 };

@@ -38,6 +38,18 @@ Eigen::Matrix3d rotationFromRodrigues(const Eigen::Vector3d& rvec) {
   return Eigen::AngleAxisd(angle, rvec / angle).toRotationMatrix();
 }
 
+Eigen::Vector3d rodriguesFromRotation(const Eigen::Matrix3d& rotation) {
+  const Eigen::AngleAxisd angle_axis(rotation);
+  return angle_axis.axis() * angle_axis.angle();
+}
+
+std::shared_ptr<const CameraModel> OpenCvCamera::withPose(const Pose& pose) const {
+  OpenCvParameters moved = p_;
+  moved.rvec = rodriguesFromRotation(pose.rotation);
+  moved.tvec = pose.translation;
+  return std::make_shared<OpenCvCamera>(moved);
+}
+
 OpenCvCamera::OpenCvCamera(const OpenCvParameters& parameters)
     : CameraModel(Pose{rotationFromRodrigues(parameters.rvec), parameters.tvec}, parameters.width,
                   parameters.height),

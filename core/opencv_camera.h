@@ -28,6 +28,8 @@ class OpenCvCamera final : public CameraModel {
   // picture; we give them no image, and no pixel maps past it.
   double maxRadius() const { return max_radius_; }
 
+  std::shared_ptr<const CameraModel> withPose(const Pose& pose) const override;
+
  protected:
   std::optional<Eigen::Vector2d> cameraToPixel(const Eigen::Vector3d& camera) const override;
   std::optional<Eigen::Vector3d> pixelToCamera(const Eigen::Vector2d& pixel) const override;
@@ -42,5 +44,7 @@ class OpenCvCamera final : public CameraModel {
 // Rodrigues' formula: the rotation matrix of a rotation vector (axis times angle), as
 // cv::Rodrigues.
 Eigen::Matrix3d rotationFromRodrigues(const Eigen::Vector3d& rvec);
+// The rotation vector of a rotation matrix, as cv::Rodrigues the other way.
+Eigen::Vector3d rodriguesFromRotation(const Eigen::Matrix3d& rotation);
 
 }  // namespace occmap

@@ -23,6 +23,12 @@ void TsaiParameters::setPose(const Pose& pose) {
   tz = pose.translation.z();
 }
 
+std::shared_ptr<const CameraModel> TsaiCamera::withPose(const Pose& pose) const {
+  TsaiParameters moved = p_;
+  moved.setPose(pose);
+  return std::make_shared<TsaiCamera>(moved);
+}
+
 TsaiCamera::TsaiCamera(const TsaiParameters& parameters)
     : CameraModel(tsaiPose(parameters), parameters.width, parameters.height), p_(parameters) {
   if (p_.kappa1 < 0.0) {

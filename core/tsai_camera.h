@@ -44,6 +44,8 @@ class TsaiCamera final : public CameraModel {
   // Cardan's formula, or nothing past the barrel limit (where Willson clamps and warns).
   std::optional<double> distortedRadius(double undistorted_radius) const;
 
+  std::shared_ptr<const CameraModel> withPose(const Pose& pose) const override;
+
  protected:
   std::optional<Eigen::Vector2d> cameraToPixel(const Eigen::Vector3d& camera) const override;
   std::optional<Eigen::Vector3d> pixelToCamera(const Eigen::Vector2d& pixel) const override;

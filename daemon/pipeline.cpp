@@ -46,7 +46,7 @@ Pipeline::Camera::Camera(const RigCamera& camera, double fps, const CameraHealth
                          int width, int height)
     : health(policy, fps),
       control(camera.name, camera.background, camera.threshold, fps),
-      changed_pixels(camera.lighting),
+      changed_pixels(camera.lighting, *camera.camera),
       frames(CapturedFrame{std::vector<std::uint8_t>(changedMaskBytes(width, height))},
              CapturedFrame{std::vector<std::uint8_t>(changedMaskBytes(width, height))},
              CapturedFrame{std::vector<std::uint8_t>(changedMaskBytes(width, height))}) {}

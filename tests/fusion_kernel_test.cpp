@@ -269,6 +269,69 @@ TEST(FusionKernel, EqualsTheReferenceOnTheSimulatedRoomWithCamerasDown) {
   }
 }
 
+// A camera's table replaced while the kernel runs (a camera re-posed after a knock): the kernel
+// then fuses as one built with the new table from the start, marks that camera's pixels by its new
+// table, and leaves out a mask marked under the old one, as if the camera were down.
+TEST(FusionKernel, AReplacedCameraTableFusesAsIfBuiltSoAndLeavesOutMasksOfTheOldOne) {
+  const auto scene = sim::makeScene("room");
+  const MapGeometry map{-0.62, -1.87, 0.04, 256, 256};
+  std::vector<Camera> cameras;
+  for (const auto& c : scene->cameras()) {
+    cameras.emplace_back(std::make_shared<TsaiCamera>(c.calibration), LengthUnit::kMillimetre, 640,
+                         480);
+  }
+  const Camera turned = cameras[1].turned(Eigen::Vector3d(0.2, 1.0, 0.1).normalized() * 0.02);
+  for (const double height : {0.0, 0.3}) {
+    std::vector<CarveTable> tables, turned_tables;
+    for (std::size_t k = 0; k < cameras.size(); ++k) {
+      tables.push_back(buildCarveTable(cameras[k], map, height));
+      turned_tables.push_back(k == 1 ? buildCarveTable(turned, map, height) : tables.back());
+    }
+    ASSERT_NE(tables[1].entries(), turned_tables[1].entries()) << "the turn changed nothing";
+    std::mt19937_64 rng(11);
+    std::vector<Image> backgrounds, lives;
+    for (std::size_t k = 0; k < cameras.size(); ++k) {
+      backgrounds.emplace_back(640, 480);
+      lives.emplace_back(640, 480);
+      randomImages(rng, backgrounds.back(), lives.back());
+    }
+    onEveryPath([&](KernelPath path) {
+      FusionKernel kernel(tables, path);
+      const FusionKernel built_so(turned_tables, path);
+      EXPECT_EQ(kernel.generation(1), 0u);
+      kernel.replaceCamera(1, turned_tables[1]);
+      EXPECT_EQ(kernel.generation(1), 1u);
+      EXPECT_EQ(kernel.generation(0), 0u);
+      EXPECT_EQ(kernel.tableBytes(), built_so.tableBytes());
+      std::vector<std::vector<std::uint8_t>> masks(cameras.size());
+      std::vector<std::vector<std::uint8_t>> expected_masks(cameras.size());
+      std::vector<const std::uint8_t*> changed;
+      std::vector<std::uint32_t> generations;
+      for (std::size_t k = 0; k < cameras.size(); ++k) {
+        masks[k].assign(changedMaskBytes(640, 480), 0x5A);
+        expected_masks[k].assign(changedMaskBytes(640, 480), 0x5A);
+        generations.push_back(kernel.markChangedPixels(k, lives[k].view(), backgrounds[k].view(),
+                                                       20, masks[k].data()));
+        built_so.markChangedPixels(k, lives[k].view(), backgrounds[k].view(), 20,
+                                   expected_masks[k].data());
+        ASSERT_EQ(masks[k], expected_masks[k]) << "camera " << k;
+        changed.push_back(masks[k].data());
+      }
+      EXPECT_EQ(generations, (std::vector<std::uint32_t>{0, 1, 0, 0}));
+      std::vector<CellState> fast(map.cellCount()), expected(map.cellCount());
+      kernel.fuse(changed, fast, generations);
+      FusionKernel(turned_tables, path).fuse(changed, expected);
+      ASSERT_EQ(fast, expected) << "column " << height;
+      // Camera 1's mask marked under its old table: left out, as if it were down.
+      generations[1] = 0;
+      kernel.fuse(changed, fast, generations);
+      changed[1] = nullptr;
+      FusionKernel(turned_tables, path).fuse(changed, expected);
+      ASSERT_EQ(fast, expected) << "column " << height;
+    });
+  }
+}
+
 // The vector steps on their own, against their scalar versions, at sizes that leave partial
 // words.
 TEST(FusionKernel, StreamingStepsAreTheSameOnEveryTarget) {

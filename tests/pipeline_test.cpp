@@ -167,7 +167,7 @@ TEST(Pipeline, UnderChangingLightEachMapIsTheOffLineReplayOfItsFrames) {
   std::vector<std::vector<bool>> explained(cameras);
   for (std::size_t k = 0; k < cameras; ++k) {
     RigCamera& camera = replay.rig.cameras()[k];
-    ChangedPixels changed(camera.lighting);
+    ChangedPixels changed(camera.lighting, *camera.camera);
     for (std::int64_t n = 0; n <= kFrames + 30; ++n) {
       Frame frame;
       ASSERT_EQ(camera.source->read(frame), FrameSource::Status::kFrame);

@@ -1,8 +1,10 @@
 // occmap fuse: off-line fusion of every camera's frames, in lockstep, into one map per frame set.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -16,6 +18,7 @@
 #include "config/rig.h"
 #include "core/changed_pixels.h"
 #include "core/fusion_kernel.h"
+#include "core/repose.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
 #include "tools/progress.h"
@@ -164,15 +167,27 @@ int run(const FuseOptions& o) {
     changed[k].assign(changedMaskBytes(cameras[k].source->width(), cameras[k].source->height()), 0);
   }
   std::vector<ChangedPixels> changed_pixels;
-  for (const RigCamera& camera : cameras) changed_pixels.emplace_back(camera.lighting);
-  // Per camera: the frames no light explained (left out), and the first map at which its view was
-  // found moved.
+  for (const RigCamera& camera : cameras)
+    changed_pixels.emplace_back(camera.lighting, *camera.camera);
+  // Per camera: the frames no light explained (left out), the first map at which its view was
+  // found moved, and the maps it was re-posed at (core/repose.h), each with its turn.
   struct ViewReport {
     std::uint64_t left_out = 0;
     std::optional<std::uint64_t> moved_at;
     ViewMotion motion;
+    CameraTurn turn;
+    std::vector<std::pair<std::uint64_t, double>> reposed;  // map, degrees
   };
   std::vector<ViewReport> views(cameras.size());
+  // What each camera differences against and votes with: the config's, until it is re-posed. The
+  // re-posed ones are all kept (the light's model knows its background by its address).
+  std::vector<const Image*> backgrounds;
+  std::vector<const Image*> floor_masks;
+  for (const RigCamera& camera : cameras) {
+    backgrounds.push_back(&camera.background);
+    floor_masks.push_back(&camera.floor_mask);
+  }
+  std::vector<std::unique_ptr<Image>> reposed_images;
   std::vector<const std::uint8_t*> masks(cameras.size(), nullptr);
   std::vector<ImageView> live(cameras.size());
   OccupancyMap map(config.map);
@@ -200,10 +215,17 @@ int run(const FuseOptions& o) {
       // daemon leaves out a camera that has none: its cells count only if another camera sees them.
       live[k] = status == FrameSource::Status::kFrame ? frame.image : ImageView{};
       masks[k] = nullptr;
-      // A frame the light's model does not explain counts as none, as in the daemon.
+      // A frame the light's model does not explain counts as none, as in the daemon. The time of a
+      // simulated frame is the scene's (its capture time is when it was rendered, which off-line
+      // is as fast as it goes): so a run gives the same maps however fast the machine.
+      const std::int64_t time_us =
+          cameras[k].sim != nullptr
+              ? static_cast<std::int64_t>(
+                    std::llround(static_cast<double>(frame.sequence) * 1e6 / cameras[k].sim->fps()))
+              : frame.capture_time_us;
       if (status == FrameSource::Status::kFrame &&
-          changed_pixels[k].mark(kernel, k, frame.image, cameras[k].background,
-                                 cameras[k].threshold, changed[k].data(), frame.capture_time_us)) {
+          changed_pixels[k].mark(kernel, k, frame.image, *backgrounds[k], cameras[k].threshold,
+                                 changed[k].data(), time_us)) {
         masks[k] = changed[k].data();
       }
       if (status == FrameSource::Status::kFrame && !masks[k]) {
@@ -211,7 +233,22 @@ int run(const FuseOptions& o) {
         if (changed_pixels[k].view() == ViewState::kMoved && !views[k].moved_at) {
           views[k].moved_at = maps;
           views[k].motion = changed_pixels[k].motion();
+          views[k].turn = changed_pixels[k].turn();
         }
+      }
+      // A moved camera steady for long enough: re-posed here and now, as occmapd does it on a
+      // thread of its own (its next frames are differenced against its new background).
+      if (const auto turn = changed_pixels[k].takeReposeTurn()) {
+        ReposedCamera reposed =
+            reposeCamera(changed_pixels[k].camera(), *turn, backgrounds[k]->view(),
+                         floor_masks[k]->view(), config.map, column_height);
+        kernel.replaceCamera(k, reposed.table);
+        changed_pixels[k].reposed(reposed.camera);
+        reposed_images.push_back(std::make_unique<Image>(std::move(reposed.background)));
+        backgrounds[k] = reposed_images.back().get();
+        reposed_images.push_back(std::make_unique<Image>(std::move(reposed.floor_mask)));
+        floor_masks[k] = reposed_images.back().get();
+        views[k].reposed.emplace_back(maps, turn->norm() * 180 / std::numbers::pi);
       }
     }
     if (ended) break;
@@ -277,13 +314,18 @@ int run(const FuseOptions& o) {
     std::printf("camera %s: %llu frames left out, no change of light explaining them",
                 cameras[k].name.c_str(), static_cast<unsigned long long>(view.left_out));
     if (view.moved_at) {
-      const CameraTurn turn = cameraTurn(*cameras[k].camera, view.motion);
       std::printf(
           "; its view moved at map %llu: turned %.2f degrees (the image shifted %.1f px "
-          "right and %.1f px down at its centre, %.2f px off a turn alone): put the camera "
-          "back or calibrate it again",
-          static_cast<unsigned long long>(*view.moved_at), turn.degrees(), view.motion.shift_x_px,
-          view.motion.shift_y_px, turn.residual_px);
+          "right and %.1f px down at its centre, %.2f px off a turn alone)",
+          static_cast<unsigned long long>(*view.moved_at), view.turn.degrees(),
+          view.motion.shift_x_px, view.motion.shift_y_px, view.turn.residual_px);
+    }
+    for (const auto& [at_map, degrees] : view.reposed) {
+      std::printf("; re-posed at map %llu (turned %.2f degrees)",
+                  static_cast<unsigned long long>(at_map), degrees);
+    }
+    if (view.moved_at && view.reposed.empty()) {
+      std::printf(": put the camera back or calibrate it again");
     }
     std::printf("\n");
   }
