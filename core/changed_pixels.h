@@ -38,7 +38,7 @@ class ChangedPixels {
   bool mark(const FusionKernel& kernel, std::size_t k, ImageView live, const Image& background,
             int threshold, std::uint8_t* changed, std::int64_t time_us) {
     if (!settings_.adapt) {
-      kernel.markChangedPixels(k, live, background.view(), threshold, changed);
+      generation_ = kernel.markChangedPixels(k, live, background.view(), threshold, changed);
       return true;
     }
     if (model_background_ != &background) {
@@ -55,7 +55,7 @@ class ChangedPixels {
       repose_turn_.reset();
     }
     const ImageView corrected = model_->correct(live);
-    kernel.markChangedPixels(k, corrected, model_->background(), threshold, changed);
+    generation_ = kernel.markChangedPixels(k, corrected, model_->background(), threshold, changed);
     model_->explainLocally(corrected, threshold, changed);
     model_->follow(live, changed);
     if (model_->explained()) {
@@ -85,6 +85,8 @@ class ChangedPixels {
   const CameraTurn& turn() const { return turn_; }
   std::int64_t checkedUs() const { return checked_us_.value_or(0); }
   const Camera& camera() const { return camera_; }
+  // The generation of the kernel's table the last mask was marked with (FusionKernel::fuse).
+  std::uint32_t generation() const { return generation_; }
 
   // Once a moved view has been steady (ReposePolicy): the turn to re-pose the camera by, given
   // once. The host makes the re-posed camera (reposeCamera), calls reposed() with it, and
@@ -108,6 +110,7 @@ class ChangedPixels {
   std::optional<std::int64_t> checked_us_;
   ReposePolicy repose_;
   std::optional<Eigen::Vector3d> repose_turn_;
+  std::uint32_t generation_ = 0;
 };
 
 }  // namespace occmap

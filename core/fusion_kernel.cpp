@@ -83,13 +83,19 @@ std::uint32_t FusionKernel::markChangedPixels(std::size_t k, ImageView live, Ima
   return camera.generation;
 }
 
-void FusionKernel::replaceCamera(std::size_t k, const CarveTable& table) {
+FusionKernel::Replacement FusionKernel::prepareReplacement(const CarveTable& table) {
+  Replacement out;
+  out.table_ = std::make_shared<CameraTable>(turnAround(table));
+  return out;
+}
+
+void FusionKernel::replaceCamera(std::size_t k, Replacement prepared) {
   const std::shared_ptr<const CameraTable> old =
       cameras_.at(k).table.load(std::memory_order_acquire);
-  if (table.map().cellCount() != cell_count_) {
+  std::shared_ptr<CameraTable> replacement = std::move(prepared.table_);
+  if (!replacement || replacement->cells != cell_count_) {
     throw std::invalid_argument("replaceCamera: a carve table of another map");
   }
-  auto replacement = std::make_shared<CameraTable>(turnAround(table));
   if (replacement->image_width != old->image_width ||
       replacement->image_height != old->image_height) {
     throw std::invalid_argument("replaceCamera: a carve table of another image size");
@@ -133,6 +139,7 @@ FusionKernel::FusionKernel(std::span<const CarveTable> tables, KernelPath path) 
 FusionKernel::CameraTable FusionKernel::turnAround(const CarveTable& table) {
   const std::size_t cells = table.map().cellCount();
   CameraTable camera;
+  camera.cells = cells;
   camera.rule = table.rule();
   camera.image_width = table.imageWidth();
   camera.image_height = table.imageHeight();

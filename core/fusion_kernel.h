@@ -49,6 +49,8 @@ void markChangedPixels(ImageView live, ImageView background, int threshold, std:
 // blocked cells get a stamp, and one pass over the stamps turns them into the camera's cleared
 // bits; a last pass writes the three states.
 class FusionKernel {
+  struct CameraTable;  // below, with the rest of what is private
+
  public:
   static constexpr std::size_t kMaxCameras = 64;
 
@@ -74,12 +76,26 @@ class FusionKernel {
 
   std::size_t cameraCount() const { return cameras_.size(); }
 
+  // A carve table turned around for replaceCamera: the costly part (tens of milliseconds for large
+  // tables), which any thread may do.
+  class Replacement {
+   public:
+    Replacement() = default;
+
+   private:
+    friend class FusionKernel;
+    std::shared_ptr<CameraTable> table_;
+  };
+  static Replacement prepareReplacement(const CarveTable& table);
   // Camera k's table replaced by one for the same map and image size (a camera re-posed after a
   // knock, core/repose.h); its generation goes up by one. Safe while another thread runs fuse()
   // and others mark other cameras' pixels; camera k's own markChangedPixels must be called by the
   // calling thread (the camera's capture thread) or not at all meanwhile. Throws
   // std::invalid_argument for a table of another map or size.
-  void replaceCamera(std::size_t camera, const CarveTable& table);
+  void replaceCamera(std::size_t camera, Replacement replacement);
+  void replaceCamera(std::size_t camera, const CarveTable& table) {
+    replaceCamera(camera, prepareReplacement(table));
+  }
   std::uint32_t generation(std::size_t camera) const;
   // Bytes of the turned-around tables (what fuse() may read besides the masks).
   std::size_t tableBytes() const;
@@ -127,6 +143,7 @@ class FusionKernel {
     std::size_t seen_begin = 0;       // words of `seen` with a bit set: [seen_begin, seen_end)
     std::size_t seen_end = 0;
     std::uint32_t generation = 0;  // replaceCamera's count
+    std::size_t cells = 0;         // of its map
   };
   // Each camera's table, replaced whole (replaceCamera) while other threads may read the old one:
   // they hold it as long as they use it.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <numbers>
 #include <stdexcept>
 
 #include <poll.h>
@@ -10,9 +11,11 @@
 
 #include "base/clock.h"
 #include "base/log.h"
+#include "core/opencv_camera.h"
 #include "core/pacing.h"
 #include "transport/control_message.h"
 #include "transport/status_requests.h"
+#include "transport/status_text.h"
 
 namespace occmap {
 namespace {
@@ -86,6 +89,7 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
   states_.assign(cameras, CameraState::kStarting);
   logged_states_.assign(cameras, CameraState::kStarting);
   changed_.assign(cameras, nullptr);
+  generations_.assign(cameras, 0);
   RemoteControl::Options control;
   control.state_directory = options_.state_directory;
   control.max_requests_per_s = options_.max_control_requests_per_s;
@@ -256,11 +260,19 @@ void Pipeline::captureLoop(std::size_t k) {
     }
     camera.control.recorder.record(frame.image);  // one atomic load unless a recapture is under way
     CapturedFrame& slot = camera.frames.writeBuffer();
-    // Both may change at any frame (control requests): read once per frame, without a lock.
-    const Image& background = camera.control.background.current();
+    // Both may change at any frame (control requests): read once per frame, without a lock. A
+    // re-posed camera's own background is used until a recapture offers a new one.
+    const Image& offered = camera.control.background.current();
+    if (&offered != camera.offered) {
+      camera.offered = &offered;
+      camera.reposed_background = nullptr;
+    }
+    const Image& background =
+        camera.reposed_background != nullptr ? *camera.reposed_background : offered;
     const int threshold = camera.control.threshold.load(std::memory_order_relaxed);
     slot.explained = camera.changed_pixels.mark(kernel_, k, frame.image, background, threshold,
                                                 slot.changed.data(), frame.capture_time_us);
+    slot.generation = camera.changed_pixels.generation();
     if (const LightingModel* model = camera.changed_pixels.lighting(); model != nullptr) {
       camera.lighting_gain.store(model->gain(), std::memory_order_relaxed);
       camera.lighting_agreement.store(model->agreement(), std::memory_order_relaxed);
@@ -275,6 +287,7 @@ void Pipeline::captureLoop(std::size_t k) {
             camera.view.load(std::memory_order_relaxed)) {
       noteView(k);
     }
+    repose(k, background);
     slot.sequence = frame.sequence;
     slot.capture_time_us = frame.capture_time_us;
     slot.arrival_ns = now;
@@ -336,13 +349,64 @@ void Pipeline::noteView(std::size_t k) {
   camera.view.store(static_cast<std::int8_t>(view), std::memory_order_relaxed);
   if (moved && before != ViewState::kMoved) {
     logLine(LogLevel::kWarning,
-            "camera %s: its view moved: it turned %.2f degrees on its mount (the image shifted "
-            "%.1f px right and %.1f px down at its centre, %.2f px off a turn alone); its "
-            "calibration no longer holds, so its cells count as unseen. Put the camera back, or "
-            "calibrate it again and reload; a new background alone would not make it right",
-            prepared_.rig.cameras()[k].name.c_str(), turn_deg, motion.shift_x_px, motion.shift_y_px,
-            residual_px);
+            "camera %s: its view moved: it turned %.2f degrees on its mount (the image shifted %s "
+            "at its centre, %.2f px off a turn alone); its calibration no longer holds, so its "
+            "cells count as unseen. If it was turned (not moved along), it is re-posed once its "
+            "view has been still for %.0f s; a new background alone would not make it right",
+            prepared_.rig.cameras()[k].name.c_str(), turn_deg,
+            imageShiftText(motion.shift_x_px, motion.shift_y_px).c_str(), residual_px,
+            static_cast<double>(ReposePolicy::kSteadyUs) / 1e6);
   }
+}
+
+// Capture thread, every frame: a moved camera steady for long enough starts its re-pose
+// (core/repose.h) on the reposer's thread; a re-pose that is ready is installed: the kernel's
+// table, the camera the view is checked against, the background and mask. Recaptures are refused
+// from when the view is found moved until then (CameraControl::view_moved).
+void Pipeline::repose(std::size_t k, const Image& background) {
+  Camera& camera = *cameras_[k];
+  const RigCamera& rig_camera = prepared_.rig.cameras()[k];
+  if (const auto turn = camera.changed_pixels.takeReposeTurn(); turn && !camera.reposer.busy()) {
+    const Image& mask = camera.floor_mask != nullptr ? *camera.floor_mask : rig_camera.floor_mask;
+    logLine(LogLevel::kNotice,
+            "camera %s: its view has been still for %.0f s, moved by a turn of %.2f degrees: "
+            "re-posing it (its table is being built; its cells stay unseen until then)",
+            rig_camera.name.c_str(), static_cast<double>(ReposePolicy::kSteadyUs) / 1e6,
+            turn->norm() * 180 / std::numbers::pi);
+    camera.reposer.start(camera.changed_pixels.camera(), *turn, background, mask,
+                         prepared_.rig.config().map, prepared_.column_height_m);
+  }
+  camera.control.view_moved.store(
+      camera.reposer.busy() || camera.changed_pixels.view() == ViewState::kMoved,
+      std::memory_order_relaxed);
+  if (!camera.reposer.busy()) return;
+  std::string error;
+  std::optional<Reposer::Result> result = camera.reposer.take(error);
+  if (!result) {
+    if (!error.empty()) {
+      logLine(LogLevel::kError, "camera %s: re-posing it failed: %s; it stays left out",
+              rig_camera.name.c_str(), error.c_str());
+    }
+    return;
+  }
+  kernel_.replaceCamera(k, std::move(result->table));
+  ReposedCamera* reposed = &result->camera;
+  camera.changed_pixels.reposed(reposed->camera);
+  camera.reposed_images.push_back(std::make_unique<Image>(std::move(reposed->background)));
+  camera.reposed_background = camera.reposed_images.back().get();
+  camera.reposed_images.push_back(std::make_unique<Image>(std::move(reposed->floor_mask)));
+  camera.floor_mask = camera.reposed_images.back().get();
+  const double degrees = reposed->turn.norm() * 180 / std::numbers::pi;
+  camera.reposed_turn_deg.store(degrees, std::memory_order_relaxed);
+  camera.reposed_utime.store(hostTimeMicroseconds(), std::memory_order_relaxed);
+  camera.reposes.fetch_add(1, std::memory_order_relaxed);
+  camera.control.view_moved.store(false, std::memory_order_relaxed);
+  const Eigen::Vector3d rvec = rodriguesFromRotation(reposed->camera.model().pose().rotation);
+  logLine(LogLevel::kNotice,
+          "camera %s: re-posed, turned %.2f degrees: its pose is corrected in memory and it is "
+          "back in the maps. Its calibration file still has the old pose: the new rotation is "
+          "rvec [%.6f, %.6f, %.6f] (OpenCV's Rodrigues vector, world to camera)",
+          rig_camera.name.c_str(), degrees, rvec.x(), rvec.y(), rvec.z());
 }
 
 void Pipeline::loseCamera(std::size_t k, const char* why) {
@@ -409,9 +473,12 @@ void Pipeline::fuse(std::int64_t now) {
     const CapturedFrame& frame = camera.frames.readBuffer();
     // The newest frame of each live camera; one that is late for this set still counts with its
     // previous frame as long as that is recent (a down camera's cells turn unseen instead).
-    const bool used =
-        frame_set_.uses(k, states_[k], now, camera.health.downAfterNs()) && frame.explained;
+    // A mask marked under a table a re-pose has replaced since does not count either (the kernel
+    // checks it again against the table it fuses with).
+    const bool used = frame_set_.uses(k, states_[k], now, camera.health.downAfterNs()) &&
+                      frame.explained && frame.generation == kernel_.generation(k);
     changed_[k] = used ? frame.changed.data() : nullptr;
+    generations_[k] = frame.generation;
     out.cameras[k] =
         CameraContribution{states_[k], used, used ? static_cast<std::int64_t>(frame.sequence) : -1,
                            used ? frame.capture_time_us : 0};
@@ -421,7 +488,7 @@ void Pipeline::fuse(std::int64_t now) {
     }
   }
   const std::int64_t began = monotonicNanoseconds();
-  kernel_.fuse(changed_, out.map.cells);
+  kernel_.fuse(changed_, out.map.cells, generations_);
   fusion_times_.record(monotonicNanoseconds() - began);
   out.utime = newest != 0 ? newest : hostTimeMicroseconds();
   out.newest_arrival_ns = newest_arrival;
@@ -521,6 +588,9 @@ void Pipeline::fillReport(std::int64_t now) {
     c.view_turn_deg = camera.view_turn_deg.load(std::memory_order_relaxed);
     c.view_residual_px = camera.view_residual_px.load(std::memory_order_relaxed);
     c.view_checked_utime = camera.view_checked_us.load(std::memory_order_relaxed);
+    c.reposes = camera.reposes.load(std::memory_order_relaxed);
+    c.reposed_turn_deg = camera.reposed_turn_deg.load(std::memory_order_relaxed);
+    c.reposed_utime = camera.reposed_utime.load(std::memory_order_relaxed);
   }
 }
 

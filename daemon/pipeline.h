@@ -35,6 +35,7 @@
 #include "core/map_frame.h"
 #include "core/triple_buffer.h"
 #include "daemon/remote_control.h"
+#include "daemon/reposer.h"
 #include "transport/bus.h"
 #include "transport/map_publisher.h"
 #include "transport/status_publisher.h"
@@ -117,6 +118,7 @@ class Pipeline {
     // False when the light's model did not explain the frame (core/lighting_model.h): fusion
     // leaves the camera out, so that what only it sees is unseen rather than occupied.
     bool explained = true;
+    std::uint32_t generation = 0;  // of the kernel's table it was marked with (a re-pose)
     std::uint64_t sequence = 0;
     std::int64_t capture_time_us = 0;
     std::int64_t arrival_ns = 0;  // CLOCK_MONOTONIC, when the capture thread had it
@@ -143,6 +145,18 @@ class Pipeline {
     std::atomic<double> view_turn_deg{0};
     std::atomic<double> view_residual_px{0};
     std::atomic<std::int64_t> view_checked_us{0};
+    // Re-posing after a knock (core/repose.h, daemon/reposer.h): the capture thread starts the job
+    // and installs its result; what it then differences against and votes with is the re-posed
+    // camera's (until a recapture offers another background). The re-posed backgrounds are all
+    // kept: the light's model knows its background by its address.
+    Reposer reposer;
+    const Image* offered = nullptr;             // the control's background last seen
+    const Image* reposed_background = nullptr;  // in use while not nullptr
+    const Image* floor_mask = nullptr;          // the mask the table in use was built with
+    std::vector<std::unique_ptr<Image>> reposed_images;
+    std::atomic<std::int32_t> reposes{0};
+    std::atomic<double> reposed_turn_deg{0};
+    std::atomic<std::int64_t> reposed_utime{0};
     // The newest frame: when fusion is behind, the oldest gives way (fusion only takes the newest).
     TripleBuffer<CapturedFrame> frames;
     alignas(64) std::atomic<std::uint64_t> frames_in{0};
@@ -161,6 +175,7 @@ class Pipeline {
   void loseCamera(std::size_t camera, const char* why);
   void noteLighting(std::size_t camera, bool explained);
   void noteView(std::size_t camera);
+  void repose(std::size_t camera, const Image& background);
   void fusionLoop();
   void noteState(std::size_t camera, CameraState state, std::int64_t now);
   void fuse(std::int64_t now);
@@ -184,6 +199,7 @@ class Pipeline {
   std::vector<CameraState> states_;         // each camera's state at the last round
   std::vector<CameraState> logged_states_;  // what the log last said of it
   std::vector<const std::uint8_t*> changed_;
+  std::vector<std::uint32_t> generations_;
   TripleBuffer<MapFrame> maps_;
   TimeHistogram fusion_times_;
 

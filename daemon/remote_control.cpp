@@ -181,6 +181,15 @@ void RemoteControl::handle(const std::uint8_t* data, std::size_t size, std::int6
     return;
   }
   if (stopping_.load(relaxed)) return refuse("the daemon is stopping");
+  if (camera.view_moved.load(relaxed)) {
+    refused_.fetch_add(1, relaxed);
+    reply(bus, id, occmap::control_reply_t::OUTCOME_REFUSED,
+          "camera %s: its view has moved from its calibration (occmap status says by how much): a "
+          "background taken now would not fit it. occmapd re-poses it by itself once its view is "
+          "still; or put the camera back",
+          camera.name.c_str());
+    return;
+  }
   if (recapture_busy_.load(std::memory_order_acquire)) {
     return refuse("a recapture is under way; try again when it has ended");
   }

@@ -52,6 +52,9 @@ struct CameraControl {
   BackgroundHandover background;
   FrameRecorder recorder;
   std::atomic<std::int64_t> background_utime{0};  // 0: the config's image
+  // The camera's view is moved from its calibration, or it is being re-posed (set by its capture
+  // thread): a background taken now would not fit its table, so recaptures are refused.
+  std::atomic<bool> view_moved{false};
   const int width;
   const int height;
 };

@@ -164,6 +164,9 @@ TEST(ViewStatus, IsDecodedWhenWholeAndRefusedWithAReasonOtherwise) {
   sent.turn_deg = {0, 1.01, 0};
   sent.residual_px = {0, 0.3, 0};
   sent.checked_utime = {0, 1'700'000'000'500'000, 1'700'000'000'400'000};
+  sent.reposes = {0, 2, 0};
+  sent.reposed_turn_deg = {0, 0.98, 0};
+  sent.reposed_utime = {0, 1'700'000'000'100'000, 0};
   std::vector<std::uint8_t> data(static_cast<std::size_t>(sent.getEncodedSize()));
   ASSERT_EQ(sent.encode(data.data(), 0, static_cast<int>(data.size())),
             static_cast<int>(data.size()));
@@ -175,6 +178,8 @@ TEST(ViewStatus, IsDecodedWhenWholeAndRefusedWithAReasonOtherwise) {
   EXPECT_EQ(decoded->shift_y_px, sent.shift_y_px);
   EXPECT_EQ(decoded->turn_deg, sent.turn_deg);
   EXPECT_EQ(decoded->checked_utime, sent.checked_utime);
+  EXPECT_EQ(decoded->reposes, sent.reposes);
+  EXPECT_EQ(decoded->reposed_utime, sent.reposed_utime);
 
   auto refused = [&](std::vector<std::uint8_t> bytes_in, const std::string& why) {
     std::string reason;

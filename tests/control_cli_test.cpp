@@ -110,9 +110,10 @@ TEST(OccmapControl, SetsAThresholdThatStatusShowsAndAReloadPutsBack) {
   EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
 }
 
-// A knocked camera (sim://room-knock: c1 turned by 1 degree at 2 s) through the log and `occmap
-// status`: found moved, by about the degree it turned, and left out of the maps (view_status_t).
-TEST(OccmapStatus, SaysWhichCameraWasMovedAndHowFarItTurned) {
+// A knocked camera (sim://room-knock: c1 turned by 1 degree at 1 s) through the log and `occmap
+// status`: found moved, by about the degree it turned, and left out of the maps (view_status_t);
+// then, its view still for 2 s, re-posed by that turn and back in the maps, and said so.
+TEST(OccmapStatus, SaysWhichCameraWasMovedHowFarItTurnedAndThatItWasRePosed) {
   if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
     GTEST_SKIP() << problem;
   }
@@ -148,6 +149,24 @@ TEST(OccmapStatus, SaysWhichCameraWasMovedAndHowFarItTurned) {
   result = runCommand({kOccmap, "status"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("c1: DEGRADED, MOVED: it turned"), std::string::npos) << result.out;
+
+  // Re-posed (the scene loops at 20 s, when c1 is back where it was: long before that).
+  ASSERT_TRUE(waitForError(daemon, "camera c1: re-posed, turned", testing::eventually(15s)))
+      << daemon.err();
+  bool back = false;
+  for (int attempt = 0; attempt < 20 && !back; ++attempt) {
+    result = runCommand({kOccmap, "status", "--json"});
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    back = result.out.find("\"lighting_explained\":[true,true,true,true]") != std::string::npos &&
+           result.out.find("\"view_reposes\":[0,1,0,0]") != std::string::npos;
+    if (!back) std::this_thread::sleep_for(100ms);
+  }
+  ASSERT_TRUE(back) << result.out;
+  const auto reposed = nlohmann::json::parse(result.out)["view_reposed_turn_deg"];
+  EXPECT_NEAR(reposed[1].get<double>(), 1.0, 0.1) << result.out;
+  result = runCommand({kOccmap, "status"});
+  EXPECT_NE(result.out.find("c1: light 1.00 x the background's"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("re-posed 1 time after a knock"), std::string::npos) << result.out;
   daemon.signal(SIGTERM);
   EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
 }

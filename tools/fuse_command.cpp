@@ -22,6 +22,7 @@
 #include "tools/commands.h"
 #include "tools/pictures.h"
 #include "tools/progress.h"
+#include "transport/status_text.h"
 
 namespace occmap::tools {
 namespace {
@@ -315,10 +316,11 @@ int run(const FuseOptions& o) {
                 cameras[k].name.c_str(), static_cast<unsigned long long>(view.left_out));
     if (view.moved_at) {
       std::printf(
-          "; its view moved at map %llu: turned %.2f degrees (the image shifted %.1f px "
-          "right and %.1f px down at its centre, %.2f px off a turn alone)",
+          "; its view moved at map %llu: turned %.2f degrees (the image shifted %s at its "
+          "centre, %.2f px off a turn alone)",
           static_cast<unsigned long long>(*view.moved_at), view.turn.degrees(),
-          view.motion.shift_x_px, view.motion.shift_y_px, view.turn.residual_px);
+          imageShiftText(view.motion.shift_x_px, view.motion.shift_y_px).c_str(),
+          view.turn.residual_px);
     }
     for (const auto& [at_map, degrees] : view.reposed) {
       std::printf("; re-posed at map %llu (turned %.2f degrees)",

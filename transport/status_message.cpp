@@ -123,8 +123,9 @@ const char* viewStatusLayoutError(const std::uint8_t* data, std::size_t size) {
   if (cameras < 0) return "num_cameras is negative";
   if (!readStrings(in, cameras)) return "a camera's name is not a string that fits";
   // view (int8), shift_x_px, shift_y_px, turn_deg, residual_px (double), checked_utime (int64),
-  // each num_cameras long: at most 32767 * 41 bytes, no overflow.
-  if (!in.skip(static_cast<std::size_t>(cameras) * (1 + 4 * 8 + 8))) {
+  // reposes (int32), reposed_turn_deg (double), reposed_utime (int64), each num_cameras long: at
+  // most 32767 * 61 bytes, no overflow.
+  if (!in.skip(static_cast<std::size_t>(cameras) * (1 + 4 * 8 + 8 + 4 + 8 + 8))) {
     return "truncated in the cameras' figures";
   }
   if (in.remaining() != 0) return "bytes left over: the counts do not add up to the size";

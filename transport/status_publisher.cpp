@@ -130,6 +130,9 @@ void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t
   view_status_.turn_deg.resize(cameras);
   view_status_.residual_px.resize(cameras);
   view_status_.checked_utime.resize(cameras);
+  view_status_.reposes.resize(cameras);
+  view_status_.reposed_turn_deg.resize(cameras);
+  view_status_.reposed_utime.resize(cameras);
   for (std::size_t k = 0; k < cameras; ++k) {
     const CameraReport& c = report.cameras[k];
     view_status_.camera_name[k] = c.name;
@@ -139,6 +142,9 @@ void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t
     view_status_.turn_deg[k] = c.view_turn_deg;
     view_status_.residual_px[k] = c.view_residual_px;
     view_status_.checked_utime[k] = c.view_checked_utime;
+    view_status_.reposes[k] = c.reposes;
+    view_status_.reposed_turn_deg[k] = c.reposed_turn_deg;
+    view_status_.reposed_utime[k] = c.reposed_utime;
   }
   buffer_.resize(static_cast<std::size_t>(view_status_.getEncodedSize()));
   view_status_.encode(buffer_.data(), 0, static_cast<int>(buffer_.size()));

@@ -72,6 +72,9 @@ struct CameraReport {
   double view_turn_deg = 0;
   double view_residual_px = 0;
   std::int64_t view_checked_utime = 0;
+  std::int32_t reposes = 0;
+  double reposed_turn_deg = 0;
+  std::int64_t reposed_utime = 0;
 };
 
 struct DaemonReport {

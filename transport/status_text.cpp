@@ -21,7 +21,8 @@ std::size_t viewIndex(const occmap::view_status_t* view, const std::string& name
   const std::size_t cameras =
       std::min({view->camera_name.size(), view->view.size(), view->shift_x_px.size(),
                 view->shift_y_px.size(), view->turn_deg.size(), view->residual_px.size(),
-                view->checked_utime.size()});
+                view->checked_utime.size(), view->reposes.size(), view->reposed_turn_deg.size(),
+                view->reposed_utime.size()});
   for (std::size_t v = 0; v < cameras; ++v) {
     if (view->camera_name[v] == name) return v;
   }
@@ -208,6 +209,11 @@ std::string formatStatusTable(const occmap::status_t& s, const occmap::control_s
   return text;
 }
 
+std::string imageShiftText(double x_px, double y_px) {
+  return format("%.1f px %s and %.1f px %s", std::abs(x_px), x_px < 0 ? "left" : "right",
+                std::abs(y_px), y_px < 0 ? "up" : "down");
+}
+
 std::string viewName(int view) {
   switch (view) {
     case occmap::view_status_t::AS_CALIBRATED:
@@ -237,11 +243,12 @@ std::string formatLightingStatusTable(const occmap::lighting_status_t& l,
     } else if (const std::size_t v = viewIndex(view, l.camera_name[k]);
                v != kNoView && view->view[v] == occmap::view_status_t::MOVED) {
       text += format(
-          "%s: DEGRADED, MOVED: it turned %.2f degrees on its mount (the image shifted %.1f px "
-          "right and %.1f px down, %.2f px off a turn alone); its calibration no longer holds "
-          "and its cells are unseen: put it back, or calibrate it again and reload",
-          name.c_str(), view->turn_deg[v], view->shift_x_px[v], view->shift_y_px[v],
-          view->residual_px[v]);
+          "%s: DEGRADED, MOVED: it turned %.2f degrees on its mount (the image shifted %s, "
+          "%.2f px off a turn alone); its calibration no longer holds and its cells are unseen "
+          "until occmapd re-poses it, once its view is still (if it was turned, not moved "
+          "along); or put it back",
+          name.c_str(), view->turn_deg[v],
+          imageShiftText(view->shift_x_px[v], view->shift_y_px[v]).c_str(), view->residual_px[v]);
     } else if (v != kNoView && view->view[v] == occmap::view_status_t::UNEXPLAINED) {
       text += format(
           "%s: DEGRADED, no change of light explains its view (%.0f %% of pixels agree) and it "
@@ -256,6 +263,13 @@ std::string formatLightingStatusTable(const occmap::lighting_status_t& l,
     }
     if (l.unexplained_frames[k] > 0) {
       text += format("; %" PRId64 " frames left out so far", l.unexplained_frames[k]);
+    }
+    if (const std::size_t v = viewIndex(view, l.camera_name[k]);
+        v != kNoView && view->reposes[v] > 0) {
+      text += format(
+          "; re-posed %d time%s after a knock (last turned %.2f degrees): its "
+          "calibration file still has the old pose",
+          view->reposes[v], view->reposes[v] == 1 ? "" : "s", view->reposed_turn_deg[v]);
     }
     text += "\n";
   }
@@ -357,6 +371,9 @@ std::string formatStatusJson(const occmap::status_t& s, const occmap::control_st
     j["view_turn_deg"] = v.turn_deg;
     j["view_residual_px"] = v.residual_px;
     j["view_checked_utime"] = v.checked_utime;
+    j["view_reposes"] = v.reposes;
+    j["view_reposed_turn_deg"] = v.reposed_turn_deg;
+    j["view_reposed_utime"] = v.reposed_utime;
   }
   // The texts are anyone's on the network: bytes that are not UTF-8 become U+FFFD (rather than an
   // exception), and ensure_ascii writes every character outside printable ASCII as \uXXXX, so that

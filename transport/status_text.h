@@ -46,7 +46,8 @@ std::string formatControlStatusTable(const occmap::control_status_t& control);
 // "lighting_unexplained_frames", in the order of its camera names ("lighting_camera_name"). With
 // `view`, its arrays as "view_camera_name", "view" (the numbers), "view_name" ("as calibrated",
 // "unexplained", "moved"), "view_shift_x_px", "view_shift_y_px", "view_turn_deg",
-// "view_residual_px" and "view_checked_utime".
+// "view_residual_px", "view_checked_utime", "view_reposes", "view_reposed_turn_deg" and
+// "view_reposed_utime".
 std::string formatStatusJson(const occmap::status_t& status,
                              const occmap::control_status_t* control = nullptr,
                              const occmap::lighting_status_t* lighting = nullptr,
@@ -54,6 +55,8 @@ std::string formatStatusJson(const occmap::status_t& status,
 
 // "as calibrated", "unexplained", "moved" (view_status_t); "view N" otherwise.
 std::string viewName(int view);
+// How an image moved, in words: "10.0 px right and 3.3 px up" (+y is down).
+std::string imageShiftText(double x_px, double y_px);
 
 // A text from the network (a host or camera name, an error) as it may be printed on a terminal:
 // control characters and bytes that are not UTF-8 become '?', so an escape sequence shows as text.

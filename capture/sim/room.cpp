@@ -252,7 +252,7 @@ class RoomLampsScene final : public RoomInItsLight {
   }
 };
 
-// The room with camera c1 knocked on its mount at 2 s: turned by 1 degree, mostly to one side and
+// The room with camera c1 knocked on its mount at 1 s: turned by 1 degree, mostly to one side and
 // a little down and about its axis, and left so. Its calibration and background are the old pose's.
 class RoomKnockScene final : public RoomInItsLight {
  public:
@@ -260,7 +260,7 @@ class RoomKnockScene final : public RoomInItsLight {
   std::optional<Knock> knock(std::string_view camera) const override {
     if (camera != "c1") return std::nullopt;
     const double one_degree = std::numbers::pi / 180;
-    return Knock{2.0, Eigen::Vector3d(0.3, 0.9, 0.3).normalized() * one_degree};
+    return Knock{1.0, Eigen::Vector3d(0.3, 0.9, 0.3).normalized() * one_degree};
   }
 };
 }  // namespace

@@ -143,7 +143,7 @@ class Scene {
 
 // Built-in scenes by name ("room": the paper's set-up; "room-light": the same room and people while
 // its light steps and ramps; "room-lamps": light in parts of it; "room-knock": camera c1 turned by
-// 1 degree at 2 s; docs/lighting.md). Empty for an unknown name.
+// 1 degree at 1 s; docs/lighting.md). Empty for an unknown name.
 std::unique_ptr<Scene> makeScene(std::string_view name);
 std::vector<std::string> sceneNames();
 
