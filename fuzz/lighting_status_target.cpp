@@ -67,3 +67,5 @@ bool fuzzLightingStatus(Input input) {
 }
 
 }  // namespace occmap::fuzz
+
+OCCMAP_FUZZ_ENTRY(occmap::fuzz::fuzzLightingStatus)

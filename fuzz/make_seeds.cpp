@@ -16,6 +16,7 @@
 #include <occmap/lighting_status_t.hpp>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
+#include <occmap/view_status_t.hpp>
 
 #include "fuzz/fuzz_target.h"
 #include "transport/control_message.h"
@@ -175,6 +176,31 @@ int main(int argc, char** argv) {
   lighting.unexplained_frames.clear();
   lighting.num_cameras = 0;
   writeMessage(corpus / "lighting_status" / "answer-no-cameras.bin", lighting);
+
+  // The view status published with it: one camera as calibrated, one moved, one whose view nothing
+  // explains, one re-posed twice; then an answer without cameras.
+  occmap::view_status_t view{};
+  view.utime = status.utime;
+  view.request_id = -1;
+  view.hostname = status.hostname;
+  view.camera_name = {"c0", "c1", "c2", "c3"};
+  view.view = {occmap::view_status_t::AS_CALIBRATED, occmap::view_status_t::MOVED,
+               occmap::view_status_t::UNEXPLAINED, occmap::view_status_t::AS_CALIBRATED};
+  view.shift_x_px = {0, 10.1, 0, 0};
+  view.shift_y_px = {0, -3.3, 0, 0};
+  view.turn_deg = {0, 1.01, 0, 0};
+  view.residual_px = {0, 0.29, 0, 0};
+  view.checked_utime = {0, status.utime - 400'000, status.utime - 700'000, 0};
+  view.reposes = {0, 0, 0, 2};
+  view.reposed_turn_deg = {0, 0, 0, 0.8};
+  view.reposed_utime = {0, 0, 0, status.utime - 60'000'000};
+  view.num_cameras = static_cast<std::int16_t>(view.camera_name.size());
+  writeMessage(corpus / "view_status" / "periodic-4-cameras.bin", view);
+  view = occmap::view_status_t{};
+  view.utime = status.utime;
+  view.request_id = 77;
+  view.hostname = status.hostname;
+  writeMessage(corpus / "view_status" / "answer-no-cameras.bin", view);
 
   // Signed with the control target's key (fuzz/fuzz_target.h), so that a seed goes all the way.
   occmap::control_request_t control{};
