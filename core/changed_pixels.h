@@ -3,10 +3,10 @@
 // `occmap fuse` repeats it, so that off-line maps equal live ones: the light's model (when the
 // config adapts to the light), the difference into changed-pixel tiles, and the model's drift.
 // When the model does not explain a frame, whether the camera was moved (core/view_motion.h), at
-// most once a second of capture time, and when a moved camera is steady enough to be re-posed
+// most once a second of capture time (the first such frame allocates the check's pyramids), and when a moved camera is steady enough to be re-posed
 // (core/repose.h: the host builds the re-posed camera and hands it back).
 // No I/O, no threads; the model is made at the first frame and again only when the background is
-// replaced (a recapture), never per frame.
+// replaced (a recapture or a re-pose), never per frame.
 
 #include <cstddef>
 #include <cstdint>
@@ -47,7 +47,7 @@ class ChangedPixels {
       } else {
         model_.emplace(background.view(), settings_);
       }
-      view_motion_.emplace(background.view());
+      view_motion_.reset();
       model_background_ = &background;
       view_ = ViewState::kAsCalibrated;
       checked_us_.reset();
@@ -63,7 +63,9 @@ class ChangedPixels {
     } else if (!checked_us_ || time_us - *checked_us_ >= kViewCheckPeriodUs ||
                time_us < *checked_us_) {
       // The first frame no light explains is checked at once, then one a second: tens of
-      // milliseconds each, of frames that do not count anyway.
+      // milliseconds each, of frames that do not count anyway. The estimator's pyramids (some
+      // 5 bytes a pixel) are made for a camera only once its view is first unexplained.
+      if (!view_motion_) view_motion_.emplace(background.view());
       motion_ = view_motion_->estimate(live);
       view_ = motion_.moved ? ViewState::kMoved : ViewState::kUnexplained;
       turn_ = motion_.moved ? cameraTurn(camera_, motion_) : CameraTurn{};

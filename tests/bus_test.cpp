@@ -103,6 +103,33 @@ TEST(StatusRequests, AreAnsweredOldestFirstAtTheBoundedRateAndAFloodIsShedAndCou
   EXPECT_EQ(requests.waiting(), 0u);
 }
 
+// The bytes of `data` (a message with the per-camera companions' head: fingerprint, utime,
+// request_id, `hostname`, num_cameras, ...) cut short, made longer, of another fingerprint and with
+// a negative camera count: each refused by `decode` with its reason.
+template <typename Decode>
+void expectEachDamageRefused(const std::vector<std::uint8_t>& data, const std::string& hostname,
+                             Decode decode) {
+  auto refused = [&](std::vector<std::uint8_t> bytes_in, const std::string& why) {
+    std::string reason;
+    EXPECT_FALSE(decode(bytes_in.data(), bytes_in.size(), &reason)) << why;
+    EXPECT_NE(reason.find(why), std::string::npos) << reason;
+  };
+  refused({data.begin(), data.end() - 1}, "truncated in the cameras' figures");
+  std::vector<std::uint8_t> longer = data;
+  longer.push_back(0);
+  refused(longer, "bytes left over");
+  std::vector<std::uint8_t> other = data;
+  other[0] ^= 0xFF;
+  refused(other, "fingerprint");
+  // num_cameras sits after the fingerprint, utime, request_id and the hostname (length + text +
+  // NUL): made negative.
+  std::vector<std::uint8_t> negative = data;
+  const std::size_t count_at = 8 + 8 + 8 + 4 + hostname.size() + 1;
+  negative[count_at] = 0xFF;
+  negative[count_at + 1] = 0xFE;
+  refused(negative, "num_cameras is negative");
+}
+
 // A lighting_status_t from anyone on the network: decoded when it is exactly one, refused with a
 // reason when a count, a length or the fingerprint does not fit, never an exception.
 TEST(LightingStatus, IsDecodedWhenWholeAndRefusedWithAReasonOtherwise) {
@@ -128,25 +155,10 @@ TEST(LightingStatus, IsDecodedWhenWholeAndRefusedWithAReasonOtherwise) {
   EXPECT_EQ(decoded->explained, sent.explained);
   EXPECT_EQ(decoded->unexplained_frames, sent.unexplained_frames);
 
-  auto refused = [&](std::vector<std::uint8_t> bytes_in, const std::string& why) {
-    std::string reason;
-    EXPECT_FALSE(decodeLightingStatus(bytes_in.data(), bytes_in.size(), &reason)) << why;
-    EXPECT_NE(reason.find(why), std::string::npos) << reason;
-  };
-  refused({data.begin(), data.end() - 1}, "truncated in the cameras' figures");
-  std::vector<std::uint8_t> longer = data;
-  longer.push_back(0);
-  refused(longer, "bytes left over");
-  std::vector<std::uint8_t> other = data;
-  other[0] ^= 0xFF;
-  refused(other, "fingerprint");
-  // num_cameras sits after the fingerprint, utime, request_id and the hostname (length + text +
-  // NUL): made negative.
-  std::vector<std::uint8_t> negative = data;
-  const std::size_t count_at = 8 + 8 + 8 + 4 + sent.hostname.size() + 1;
-  negative[count_at] = 0xFF;
-  negative[count_at + 1] = 0xFE;
-  refused(negative, "num_cameras is negative");
+  expectEachDamageRefused(data, sent.hostname,
+                          [](const std::uint8_t* bytes, std::size_t size, std::string* why) {
+                            return decodeLightingStatus(bytes, size, why).has_value();
+                          });
 }
 
 // A view_status_t likewise.
@@ -181,23 +193,10 @@ TEST(ViewStatus, IsDecodedWhenWholeAndRefusedWithAReasonOtherwise) {
   EXPECT_EQ(decoded->reposes, sent.reposes);
   EXPECT_EQ(decoded->reposed_utime, sent.reposed_utime);
 
-  auto refused = [&](std::vector<std::uint8_t> bytes_in, const std::string& why) {
-    std::string reason;
-    EXPECT_FALSE(decodeViewStatus(bytes_in.data(), bytes_in.size(), &reason)) << why;
-    EXPECT_NE(reason.find(why), std::string::npos) << reason;
-  };
-  refused({data.begin(), data.end() - 1}, "truncated in the cameras' figures");
-  std::vector<std::uint8_t> longer = data;
-  longer.push_back(0);
-  refused(longer, "bytes left over");
-  std::vector<std::uint8_t> other = data;
-  other[0] ^= 0xFF;
-  refused(other, "fingerprint");
-  std::vector<std::uint8_t> negative = data;
-  const std::size_t count_at = 8 + 8 + 8 + 4 + sent.hostname.size() + 1;
-  negative[count_at] = 0xFF;
-  negative[count_at + 1] = 0xFE;
-  refused(negative, "num_cameras is negative");
+  expectEachDamageRefused(data, sent.hostname,
+                          [](const std::uint8_t* bytes, std::size_t size, std::string* why) {
+                            return decodeViewStatus(bytes, size, why).has_value();
+                          });
 }
 
 }  // namespace

@@ -85,51 +85,43 @@ const char* controlStatusLayoutError(const std::uint8_t* data, std::size_t size)
   return "";
 }
 
-// The same for lighting_status_t (lcmtypes/lighting_status_t.lcm).
-const char* lightingStatusLayoutError(const std::uint8_t* data, std::size_t size) {
+// The companions of status_t that are fixed-size fields per camera after a common head
+// (lighting_status_t, view_status_t): the head is fingerprint, utime, request_id, hostname,
+// num_cameras and the camera names; then `bytes_per_camera` for each camera, at most 32767 of them
+// (no overflow). "" when every count agrees with the size.
+const char* perCameraLayoutError(const std::uint8_t* data, std::size_t size, std::int64_t hash,
+                                 const char* other_fingerprint, std::size_t bytes_per_camera) {
   WireReader in(data, size);
   std::int64_t fingerprint = 0;
   if (!in.read(fingerprint)) return "too short for an LCM message";
-  if (fingerprint != occmap::lighting_status_t::getHash()) {
-    return "not an occmap.lighting_status_t (fingerprint)";
-  }
+  if (fingerprint != hash) return other_fingerprint;
   if (!readAll<std::int64_t, std::int64_t>(in)) return "truncated in utime or request_id";
   if (!readStrings(in, 1)) return "hostname is not a string that fits";
   std::int16_t cameras = 0;
   if (!in.read(cameras)) return "truncated before num_cameras";
   if (cameras < 0) return "num_cameras is negative";
   if (!readStrings(in, cameras)) return "a camera's name is not a string that fits";
-  // adapt (int8), gain, agreement (double), explained (int8), unexplained_frames (int64), each
-  // num_cameras long: at most 32767 * 26 bytes, no overflow.
-  if (!in.skip(static_cast<std::size_t>(cameras) * (1 + 8 + 8 + 1 + 8))) {
+  if (!in.skip(static_cast<std::size_t>(cameras) * bytes_per_camera)) {
     return "truncated in the cameras' figures";
   }
   if (in.remaining() != 0) return "bytes left over: the counts do not add up to the size";
   return "";
 }
 
-// The same for view_status_t (lcmtypes/view_status_t.lcm).
+// lighting_status_t (lcmtypes/lighting_status_t.lcm): adapt (int8), gain, agreement (double),
+// explained (int8), unexplained_frames (int64) per camera.
+const char* lightingStatusLayoutError(const std::uint8_t* data, std::size_t size) {
+  return perCameraLayoutError(data, size, occmap::lighting_status_t::getHash(),
+                              "not an occmap.lighting_status_t (fingerprint)", 1 + 8 + 8 + 1 + 8);
+}
+
+// view_status_t (lcmtypes/view_status_t.lcm): view (int8), shift_x_px, shift_y_px, turn_deg,
+// residual_px (double), checked_utime (int64), reposes (int32), reposed_turn_deg (double),
+// reposed_utime (int64) per camera.
 const char* viewStatusLayoutError(const std::uint8_t* data, std::size_t size) {
-  WireReader in(data, size);
-  std::int64_t fingerprint = 0;
-  if (!in.read(fingerprint)) return "too short for an LCM message";
-  if (fingerprint != occmap::view_status_t::getHash()) {
-    return "not an occmap.view_status_t (fingerprint)";
-  }
-  if (!readAll<std::int64_t, std::int64_t>(in)) return "truncated in utime or request_id";
-  if (!readStrings(in, 1)) return "hostname is not a string that fits";
-  std::int16_t cameras = 0;
-  if (!in.read(cameras)) return "truncated before num_cameras";
-  if (cameras < 0) return "num_cameras is negative";
-  if (!readStrings(in, cameras)) return "a camera's name is not a string that fits";
-  // view (int8), shift_x_px, shift_y_px, turn_deg, residual_px (double), checked_utime (int64),
-  // reposes (int32), reposed_turn_deg (double), reposed_utime (int64), each num_cameras long: at
-  // most 32767 * 61 bytes, no overflow.
-  if (!in.skip(static_cast<std::size_t>(cameras) * (1 + 4 * 8 + 8 + 4 + 8 + 8))) {
-    return "truncated in the cameras' figures";
-  }
-  if (in.remaining() != 0) return "bytes left over: the counts do not add up to the size";
-  return "";
+  return perCameraLayoutError(data, size, occmap::view_status_t::getHash(),
+                              "not an occmap.view_status_t (fingerprint)",
+                              1 + 4 * 8 + 8 + 4 + 8 + 8);
 }
 
 }  // namespace
