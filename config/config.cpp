@@ -26,6 +26,7 @@ LightingSettings LightingOverride::over(LightingSettings settings) const {
   if (adapt) settings.adapt = *adapt;
   if (drift_frames) settings.drift_frames = *drift_frames;
   if (min_agreement) settings.min_agreement = *min_agreement;
+  if (min_agreement_in_place) settings.min_agreement_in_place = *min_agreement_in_place;
   if (agreement_grey_levels) settings.agreement_grey_levels = *agreement_grey_levels;
   if (local) settings.local = *local;
   return settings;
@@ -43,8 +44,12 @@ constexpr std::string_view kTopKeys[] = {"map", "cameras", "fusion", "transport"
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
-constexpr std::string_view kLightingKeys[] = {"adapt", "drift_frames", "min_agreement",
-                                              "agreement_grey_levels", "local"};
+constexpr std::string_view kLightingKeys[] = {"adapt",
+                                              "drift_frames",
+                                              "min_agreement",
+                                              "min_agreement_in_place",
+                                              "agreement_grey_levels",
+                                              "local"};
 constexpr std::string_view kTransportKeys[] = {"lcm_url", "map_channel", "status_channel",
                                                "encoding"};
 constexpr std::string_view kControlKeys[] = {"enabled", "key_file", "replay_window_s"};
@@ -428,6 +433,8 @@ class ConfigReader {
         lighting.drift_frames = smallInteger(entry.value, 1, 1000000);
       } else if (entry.key == "min_agreement") {
         lighting.min_agreement = real(entry.value, 0.0, false, 1.0, "");
+      } else if (entry.key == "min_agreement_in_place") {
+        lighting.min_agreement_in_place = real(entry.value, 0.0, false, 1.0, "");
       } else if (entry.key == "agreement_grey_levels") {
         lighting.agreement_grey_levels = smallInteger(entry.value, 1, 64);
       } else if (entry.key == "local") {

@@ -33,6 +33,7 @@ struct LightingOverride {
   std::optional<bool> adapt;
   std::optional<int> drift_frames;
   std::optional<double> min_agreement;
+  std::optional<double> min_agreement_in_place;
   std::optional<int> agreement_grey_levels;
   std::optional<bool> local;
   LightingSettings over(LightingSettings settings) const;

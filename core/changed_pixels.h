@@ -32,9 +32,10 @@ class ChangedPixels {
       : settings_(lighting), camera_(std::move(camera)) {}
 
   // Marks camera k's changed pixels of `live`, captured at `time_us`, into `changed`
-  // (changedMaskBytes of the stream). False when the light's model does not explain the frame:
-  // then its changes are no evidence of anything (a bumped camera, lights out) and the frame must
-  // not count.
+  // (changedMaskBytes of the stream). False when the frame must not count: the light's model does
+  // not explain it and the camera was moved, or too little of it agrees with the light's gain
+  // (LightingSettings::min_agreement_in_place: lights out, a covered lens); then its changes are
+  // no evidence of anything.
   bool mark(const FusionKernel& kernel, std::size_t k, ImageView live, const Image& background,
             int threshold, std::uint8_t* changed, std::int64_t time_us) {
     if (!settings_.adapt) {
@@ -50,6 +51,7 @@ class ChangedPixels {
       view_motion_.reset();
       model_background_ = &background;
       view_ = ViewState::kAsCalibrated;
+      moved_ = false;
       checked_us_.reset();
       repose_.reset();
       repose_turn_.reset();
@@ -60,22 +62,31 @@ class ChangedPixels {
     model_->follow(live, changed);
     if (model_->explained()) {
       view_ = ViewState::kAsCalibrated;
-    } else if (!checked_us_ || time_us - *checked_us_ >= kViewCheckPeriodUs ||
-               time_us < *checked_us_) {
-      // The first frame no light explains is checked at once, then one a second: tens of
-      // milliseconds each, of frames that do not count anyway. The estimator's pyramids (some
-      // 5 bytes a pixel) are made for a camera only once its view is first unexplained.
+      moved_ = false;
+      return true;
+    }
+    // No change of light explains the frame. Whether the camera was moved is checked at the first
+    // such frame, then once a second, and again at once when the agreement falls further (a knock
+    // amid a crowd): tens of milliseconds each. The estimator's pyramids (some 5 bytes a pixel)
+    // are made for a camera only once its view is first unexplained.
+    const double agreement = model_->agreement();
+    const bool due = !checked_us_ || time_us - *checked_us_ >= kViewCheckPeriodUs ||
+                     time_us < *checked_us_ || agreement < checked_agreement_ - kAgreementFall;
+    if (due) {
       if (!view_motion_) view_motion_.emplace(background.view());
       motion_ = view_motion_->estimate(live);
-      view_ = motion_.moved ? ViewState::kMoved : ViewState::kUnexplained;
-      turn_ = motion_.moved ? cameraTurn(camera_, motion_) : CameraTurn{};
+      moved_ = motion_.moved;
+      turn_ = moved_ ? cameraTurn(camera_, motion_) : CameraTurn{};
       checked_us_ = time_us;
-      if (auto turn =
-              repose_.check(time_us, motion_.moved && turn_.found, turn_.turn, turn_.residual_px)) {
+      checked_agreement_ = agreement;
+      if (auto turn = repose_.check(time_us, moved_ && turn_.found, turn_.turn, turn_.residual_px)) {
         repose_turn_ = *turn;
       }
     }
-    return model_->explained();
+    view_ = moved_ ? ViewState::kMoved : ViewState::kUnexplained;
+    // A view in place that enough of agrees with the light's gain still counts (a crowd, shadows:
+    // what it finds changed stays changed); a moved one, or one nothing agrees with, does not.
+    return !moved_ && agreement >= settings_.min_agreement_in_place;
   }
 
   // The model, once a frame has been marked with one.
@@ -99,6 +110,8 @@ class ChangedPixels {
   void reposed(const Camera& camera) { camera_ = camera; }
 
   static constexpr std::int64_t kViewCheckPeriodUs = 1'000'000;
+  // A fall of the agreement since the last check that calls for another at once.
+  static constexpr double kAgreementFall = 0.05;
 
  private:
   LightingSettings settings_;
@@ -109,7 +122,9 @@ class ChangedPixels {
   ViewState view_ = ViewState::kAsCalibrated;
   ViewMotion motion_;
   CameraTurn turn_;
+  bool moved_ = false;  // what the last check found, until the light explains the view again
   std::optional<std::int64_t> checked_us_;
+  double checked_agreement_ = 0;
   ReposePolicy repose_;
   std::optional<Eigen::Vector3d> repose_turn_;
   std::uint32_t generation_ = 0;

@@ -38,6 +38,11 @@ struct LightingSettings {
   // samples agreeing), while a camera knocked aside by 1 degree leaves about half agreeing, since
   // the floor and walls look alike wherever they are.
   double min_agreement = 0.7;
+  // Below min_agreement, a view that is not moved (core/view_motion.h: a crowd, people's shadows,
+  // light the model does not explain) still counts while at least this share agrees: its gain is
+  // then still the light's, and what it finds changed is no less than what stands there. Under it
+  // (lights out, a covered lens) or moved, the camera is left out.
+  double min_agreement_in_place = 0.4;
   // The agreement band in grey levels at gain 1 (wider in a brighter light), about a pixel's noise
   // plus the model's error; a sample agrees when |live - gain x background| is under it.
   int agreement_grey_levels = 8;

@@ -169,6 +169,7 @@ TEST(Config, DefaultsAreTheDesignsDefaults) {
   EXPECT_TRUE(lighting.adapt) << "the light's model is on by default";
   EXPECT_EQ(lighting.drift_frames, 256);
   EXPECT_EQ(lighting.min_agreement, 0.7);
+  EXPECT_EQ(lighting.min_agreement_in_place, 0.4);
   EXPECT_EQ(lighting.agreement_grey_levels, 8);
   EXPECT_TRUE(lighting.local) << "the local light is on by default";
 }
@@ -183,7 +184,7 @@ TEST(Config, LightingIsSetForAllAndOverriddenPerCamera) {
       "  - {name: c0, source: sim://room/c0}\n"
       "  - {name: c1, source: sim://room/c1, lighting: {adapt: false}}\n"
       "  - {name: c2, source: sim://room/c2, lighting: {drift_frames: 30, "
-      "agreement_grey_levels: 12, local: false}}\n",
+      "agreement_grey_levels: 12, local: false, min_agreement_in_place: 0.25}}\n",
       "/etc/occmap/occmap.yaml");
   const LightingSettings c0 = config.cameras[0].effectiveLighting(config.fusion);
   EXPECT_TRUE(c0.adapt);
@@ -198,6 +199,8 @@ TEST(Config, LightingIsSetForAllAndOverriddenPerCamera) {
   EXPECT_EQ(c2.drift_frames, 30);
   EXPECT_EQ(c2.min_agreement, 0.6);
   EXPECT_EQ(c2.agreement_grey_levels, 12);
+  EXPECT_EQ(c2.min_agreement_in_place, 0.25);
+  EXPECT_EQ(c0.min_agreement_in_place, 0.4);
   EXPECT_FALSE(c2.local);
   EXPECT_TRUE(c0.local);
 }
@@ -275,6 +278,8 @@ TEST(ConfigErrors, OutOfRangeValuesSayTheRange) {
               "fusion.lighting.drift_frames", "from 1 to 1000000");
   expectError(kMinimal + "fusion:\n  lighting: {min_agreement: 1.5}\n", 6,
               "fusion.lighting.min_agreement", "<= 1");
+  expectError(kMinimal + "fusion:\n  lighting: {min_agreement_in_place: -0.1}\n", 6,
+              "fusion.lighting.min_agreement_in_place", ">= 0");
   expectError(kMinimal + "    lighting: {adapt: maybe}\n", 5, "cameras[0].lighting.adapt",
               "true or false");
   expectError(kMinimal + "    lighting: {adapts: false}\n", 5, "cameras[0].lighting.adapts",

@@ -94,32 +94,54 @@ Image mapImage(const OccupancyMap& map) {
   return image;
 }
 
-// The maps against the simulator's ground truth, summed over frames.
+// The maps against the simulator's ground truth, summed over frames; and the same over the maps
+// more than a second after every sudden change of the scene (Scene::eventTimes), with the worst
+// such map's share of clearly seen cells free.
 struct TruthScore {
   std::uint64_t inside_cells = 0, inside_kept = 0;  // cells wholly inside objects, not free
   std::uint64_t clear_cells = 0, clear_free = 0;    // cells a camera sees clearly, free
   std::uint64_t objects = 0, objects_found = 0;     // objects with a non-free cell inside
+  std::uint64_t settled_maps = 0, settled_objects = 0, settled_found = 0;
+  double settled_worst_free = 1.0;  // share of the clearly seen cells free
+  std::uint64_t settled_worst_map = 0;
+  std::uint64_t maps = 0;
 
-  void add(const OccupancyMap& map, const sim::GroundTruth& truth) {
+  void add(const OccupancyMap& map, const sim::GroundTruth& truth, bool settled) {
+    std::uint64_t clear = 0, free_clear = 0, found = 0;
     for (std::size_t cell = 0; cell < map.cells.size(); ++cell) {
       const bool free = map.cells[cell] == CellState::kFree;
       if (truth.footprint[cell] == sim::GroundTruth::kInside) {
         ++inside_cells;
         inside_kept += free ? 0 : 1;
       } else if (truth.footprint[cell] == sim::GroundTruth::kClear && truth.clear_view[cell]) {
-        ++clear_cells;
-        clear_free += free ? 1 : 0;
+        ++clear;
+        free_clear += free ? 1 : 0;
       }
     }
     for (const std::vector<int>& cells : truth.object_cells) {
-      ++objects;
       for (const int cell : cells) {
         if (map.cells[static_cast<std::size_t>(cell)] != CellState::kFree) {
-          ++objects_found;
+          ++found;
           break;
         }
       }
     }
+    clear_cells += clear;
+    clear_free += free_clear;
+    objects += truth.object_cells.size();
+    objects_found += found;
+    if (settled) {
+      ++settled_maps;
+      settled_objects += truth.object_cells.size();
+      settled_found += found;
+      const double share =
+          clear == 0 ? 1.0 : static_cast<double>(free_clear) / static_cast<double>(clear);
+      if (share < settled_worst_free) {
+        settled_worst_free = share;
+        settled_worst_map = maps;
+      }
+    }
+    ++maps;
   }
 };
 
@@ -264,8 +286,11 @@ int run(const FuseOptions& o) {
     }
     for (const CellState state : map.cells) ++counts[static_cast<int>(state)];
     if (truth_maker) {
-      score.add(map, truth_maker->at(
-                         cameras.front().sim->scene().objectsAt(cameras.front().sim->lastTime())));
+      const double t = cameras.front().sim->lastTime();
+      const std::vector<double> events = cameras.front().sim->scene().eventTimes();
+      const bool settled = std::none_of(events.begin(), events.end(),
+                                        [t](double event) { return t >= event && t < event + 1.0; });
+      score.add(map, truth_maker->at(cameras.front().sim->scene().objectsAt(t)), settled);
     }
     if (!o.snapshot.empty()) {
       last_images.clear();
@@ -308,6 +333,18 @@ int run(const FuseOptions& o) {
         static_cast<unsigned long long>(score.objects_found),
         static_cast<unsigned long long>(score.objects), percent(score.objects_found, score.objects),
         percent(score.clear_free, score.clear_cells));
+    if (score.settled_maps < maps) {
+      std::printf(
+          "over the %llu maps more than 1 s after every sudden change of the scene: objects found "
+          "%llu of %llu (%.2f %%); the worst, map %llu, has %.2f %% of the cells a camera sees "
+          "clearly free\n",
+          static_cast<unsigned long long>(score.settled_maps),
+          static_cast<unsigned long long>(score.settled_found),
+          static_cast<unsigned long long>(score.settled_objects),
+          percent(score.settled_found, score.settled_objects),
+          static_cast<unsigned long long>(score.settled_worst_map),
+          100.0 * score.settled_worst_free);
+    }
   }
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     const ViewReport& view = views[k];

@@ -120,6 +120,7 @@ void emitCamera(YAML::Emitter& yaml, const CameraConfig& entry, const RigCamera&
   yaml << YAML::Key << "lighting" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
        << "adapt" << YAML::Value << l.adapt << YAML::Key << "drift_frames" << YAML::Value
        << l.drift_frames << YAML::Key << "min_agreement" << YAML::Value << l.min_agreement
+       << YAML::Key << "min_agreement_in_place" << YAML::Value << l.min_agreement_in_place
        << YAML::Key << "agreement_grey_levels" << YAML::Value << l.agreement_grey_levels
        << YAML::Key << "local" << YAML::Value << l.local << YAML::EndMap;
   yaml << YAML::EndMap;

@@ -3,6 +3,7 @@
 // lenses, and what the paper shows moving in it: people walking, chairs being pushed, a small
 // robot.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -82,6 +83,13 @@ Eigen::Vector2d pingPong(const Eigen::Vector2d& a, const Eigen::Vector2d& b, dou
   return a + (b - a) * (s / length);
 }
 
+// Where the room's two people walk at time t: one round an ellipse, one back and forth.
+std::array<Eigen::Vector2d, 2> walkersAt(double t) {
+  const double a = 2.0 * std::numbers::pi * t / 16.0;
+  return {Eigen::Vector2d(4.5 + 2.4 * std::cos(a), 3.3 + 1.2 * std::sin(a)),
+          pingPong({5.6, 5.3}, {8.0, 2.3}, 0.8, t)};
+}
+
 class RoomScene final : public Scene {
  public:
   RoomScene() {
@@ -120,9 +128,7 @@ class RoomScene final : public Scene {
   void objectsAt(double t, std::vector<SceneObject>& out) const override {
     constexpr double kTwoPi = 2.0 * std::numbers::pi;
     // People: about 0.5 m x 1.75 m, walking at 1 m/s or so.
-    const double a = kTwoPi * t / 16.0;
-    const Eigen::Vector2d walker(4.5 + 2.4 * std::cos(a), 3.3 + 1.2 * std::sin(a));
-    const Eigen::Vector2d strider = pingPong({5.6, 5.3}, {8.0, 2.3}, 0.8, t);
+    const auto [walker, strider] = walkersAt(t);
     // Chairs pushed across the room, slower.
     const Eigen::Vector2d chair1 = pingPong({1.6, 1.4}, {6.4, 1.4}, 0.45, t);
     const Eigen::Vector2d chair2 = pingPong({7.0, 4.9}, {7.0, 1.3}, 0.3, t);
@@ -178,6 +184,10 @@ class RoomScene final : public Scene {
         return p.z() > 0.42 && p.z() < 0.48 ? 30.0 : 46.0;
       case ObjectKind::kRobot:
         return p.z() > 0.3 ? 40.0 : 18.0;
+      case ObjectKind::kBox:
+        // Grey cardboard: 26 to 60 grey levels below the planks (18 below their seams), where
+        // the other objects are at least 40 below anything static.
+        return std::fmod(p.z(), 0.2) < 0.01 ? 78.0 : 86.0;
     }
     return 0.0;
   }
@@ -262,6 +272,60 @@ class RoomKnockScene final : public RoomInItsLight {
     const double one_degree = std::numbers::pi / 180;
     return Knock{1.0, Eigen::Vector3d(0.3, 0.9, 0.3).normalized() * one_degree};
   }
+  std::vector<double> eventTimes() const override { return {1.0}; }
+};
+
+// A day in the room, ten minutes of it (issue 13's scene): the room's people, chairs and robot
+// all along, and
+// - the light: a slow cycle of +-50 % over the ten minutes (1 + 0.5 sin), the camera's
+//   auto-exposure stepping it by x 0.8 from 150 s to 250 s and by x 1.25 from 400 s to 480 s;
+// - a lamp's soft pool (x 1.6, 1 m radius) switched on from 200 s to 320 s, a patch of sun
+//   (x 1.8, sharp-edged, 1 x 0.7 m) crossing the floor at 1 cm/s, and a soft shadow (x 0.7) at
+//   every person's feet;
+// - a grey box (86 grey levels: only 26 to 60 below the planks) put down at 60 s and left;
+// - a person who walks in, stands still from 120 s to 360 s, and is gone after;
+// - camera c1 knocked by 1 degree at 450 s.
+// Backgrounds are the room's, taken in its first light.
+class RoomDayScene final : public RoomInItsLight {
+ public:
+  std::string_view name() const override { return "room-day"; }
+  double durationS() const override { return 600.0; }
+  using Scene::objectsAt;
+  void objectsAt(double t, std::vector<SceneObject>& out) const override {
+    RoomInItsLight::objectsAt(t, out);
+    if (t >= kBoxDown) out.push_back({ObjectKind::kBox, box(4.1, 0.65, 4.7, 1.05, 0.4)});
+    if (stillPersonThere(t)) {
+      out.push_back({ObjectKind::kPerson, cylinder(kStillPerson, 0.25, 1.72)});
+    }
+  }
+  double lightGain(double t) const override {
+    double gain = 1.0 + 0.5 * std::sin(2.0 * std::numbers::pi * t / 600.0);
+    if (t >= 150.0 && t < 250.0) gain *= 0.8;
+    if (t >= 400.0 && t < 480.0) gain *= 1.25;
+    return gain;
+  }
+  void lightPatches(double t, std::vector<LightPatch>& out) const override {
+    out.clear();
+    out.push_back({{1.5 + 0.01 * t, 4.3}, {0.5, 0.35}, false, 0.0, 1.8});
+    if (t >= 200.0 && t < 320.0) out.push_back({{3.0, 2.2}, {1.0, 1.0}, true, 0.5, 1.6});
+    for (const Eigen::Vector2d& person : walkersAt(t)) {
+      out.push_back({person, {0.45, 0.45}, true, 0.3, 0.7});
+    }
+    if (stillPersonThere(t)) out.push_back({kStillPerson, {0.45, 0.45}, true, 0.3, 0.7});
+  }
+  std::optional<Knock> knock(std::string_view camera) const override {
+    if (camera != "c1") return std::nullopt;
+    return Knock{kKnock, Eigen::Vector3d(0.3, 0.9, 0.3).normalized() * std::numbers::pi / 180};
+  }
+  std::vector<double> eventTimes() const override {
+    return {kBoxDown, 120.0, 150.0, 200.0, 250.0, 320.0, 360.0, 400.0, kKnock, 480.0};
+  }
+
+ private:
+  static constexpr double kBoxDown = 60.0;
+  static constexpr double kKnock = 450.0;
+  inline static const Eigen::Vector2d kStillPerson{4.4, 3.2};  // the middle of the room
+  static bool stillPersonThere(double t) { return t >= 120.0 && t < 360.0; }
 };
 }  // namespace
 
@@ -270,9 +334,10 @@ std::unique_ptr<Scene> makeScene(std::string_view name) {
   if (name == "room-light") return std::make_unique<RoomLightScene>();
   if (name == "room-lamps") return std::make_unique<RoomLampsScene>();
   if (name == "room-knock") return std::make_unique<RoomKnockScene>();
+  if (name == "room-day") return std::make_unique<RoomDayScene>();
   return nullptr;
 }
 
-std::vector<std::string> sceneNames() { return {"room", "room-light", "room-lamps", "room-knock"}; }
+std::vector<std::string> sceneNames() { return {"room", "room-light", "room-lamps", "room-knock", "room-day"}; }
 
 }  // namespace occmap::sim

@@ -95,6 +95,8 @@ std::string_view objectKindName(ObjectKind kind) {
       return "chair";
     case ObjectKind::kRobot:
       return "robot";
+    case ObjectKind::kBox:
+      return "box";
   }
   return "object";
 }

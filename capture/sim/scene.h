@@ -61,7 +61,7 @@ struct LightPatch {
   }
 };
 
-enum class ObjectKind : std::uint8_t { kPerson, kChair, kRobot };
+enum class ObjectKind : std::uint8_t { kPerson, kChair, kRobot, kBox };
 std::string_view objectKindName(ObjectKind kind);
 
 // A moving object at one moment.
@@ -70,8 +70,9 @@ struct SceneObject {
   Solid solid;
 };
 
-// How a solid looks: all objects are darker than every static surface by more than any threshold a
-// test uses plus the sensor noise, so each pixel where an object hides the background is "changed".
+// How a solid looks: all objects but boxes are darker than every static surface by more than any
+// threshold a test uses plus the sensor noise, so each pixel where an object hides the background
+// is "changed". Boxes (room-day's) are only 26 to 60 below the floor's planks.
 inline constexpr int kBrightestObject = 60;
 inline constexpr int kDarkestBackground = 100;
 inline constexpr int kSensorNoiseAmplitude = 6;  // grey levels, each way
@@ -128,6 +129,9 @@ class Scene {
   virtual void lightPatches(double /*t*/, std::vector<LightPatch>& out) const { out.clear(); }
   // Whether the camera of this name is knocked during the scene, and how.
   virtual std::optional<Knock> knock(std::string_view /*camera*/) const { return std::nullopt; }
+  // The moments something changes at once (a step of the light, a lamp switched, an object put
+  // down or a person stopping, a knock), for measures taken some time after each.
+  virtual std::vector<double> eventTimes() const { return {}; }
 
   // The nearest static surface along a ray (t > 1e-9), with its normal; rays from inside the room
   // always hit something (walls and ceiling close it).
@@ -143,7 +147,8 @@ class Scene {
 
 // Built-in scenes by name ("room": the paper's set-up; "room-light": the same room and people while
 // its light steps and ramps; "room-lamps": light in parts of it; "room-knock": camera c1 turned by
-// 1 degree at 1 s; docs/lighting.md). Empty for an unknown name.
+// 1 degree at 1 s; "room-day": ten minutes of light, lamps, sun, shadows, a box left, a person
+// standing still and a knock; docs/lighting.md). Empty for an unknown name.
 std::unique_ptr<Scene> makeScene(std::string_view name);
 std::vector<std::string> sceneNames();
 
