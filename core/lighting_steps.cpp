@@ -177,6 +177,40 @@ TileSums tileSumsVector(const std::uint8_t* HWY_RESTRICT frame, std::ptrdiff_t f
   return {total(count), total(sum_b), total(sum_bb), total(sum_lb), total(sum_ll)};
 }
 
+CorrelationSums correlationSumsVector(const std::uint8_t* HWY_RESTRICT b,
+                                      const std::uint8_t* HWY_RESTRICT l, std::size_t count) {
+  // 32-bit lanes: each adds at most count / lanes products of 255² (at most 65536 / 4 of them,
+  // under 2^31).
+  const WideTag d;
+  const hn::Rebind<std::uint8_t, WideTag> bytes;
+  const std::size_t n = hn::Lanes(d);
+  auto sum_b = hn::Zero(d);
+  auto sum_l = hn::Zero(d);
+  auto sum_bb = hn::Zero(d);
+  auto sum_ll = hn::Zero(d);
+  auto sum_bl = hn::Zero(d);
+  std::size_t u = 0;
+  for (; u + n <= count; u += n) {
+    const auto bv = hn::PromoteTo(d, hn::LoadU(bytes, b + u));
+    const auto lv = hn::PromoteTo(d, hn::LoadU(bytes, l + u));
+    sum_b = hn::Add(sum_b, bv);
+    sum_l = hn::Add(sum_l, lv);
+    sum_bb = hn::Add(sum_bb, hn::Mul(bv, bv));
+    sum_ll = hn::Add(sum_ll, hn::Mul(lv, lv));
+    sum_bl = hn::Add(sum_bl, hn::Mul(bv, lv));
+  }
+  const auto total = [&](auto sums) {
+    return static_cast<std::uint64_t>(hn::GetLane(hn::SumOfLanes(d, sums)));
+  };
+  CorrelationSums sums = correlationSumsScalar(b + u, l + u, count - u);
+  sums.sum_b += total(sum_b);
+  sums.sum_l += total(sum_l);
+  sums.sum_bb += total(sum_bb);
+  sums.sum_ll += total(sum_ll);
+  sums.sum_bl += total(sum_bl);
+  return sums;
+}
+
 }  // namespace occmap::lighting_steps::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
@@ -188,6 +222,7 @@ HWY_EXPORT(atMostVector);
 HWY_EXPORT(driftRowVector);
 HWY_EXPORT(agreementVector);
 HWY_EXPORT(tileSumsVector);
+HWY_EXPORT(correlationSumsVector);
 
 void inBackgroundsLight(const std::uint8_t* live, int width, std::int32_t inverse_q16,
                         std::uint8_t* out) {
@@ -277,6 +312,25 @@ void driftRowScalar(const std::uint8_t* live, const std::uint8_t* quiet, int wid
     fine[u] = static_cast<std::uint16_t>(moved);
     grey[u] = static_cast<std::uint8_t>(std::min(255, (moved + 128) >> 8));
   }
+}
+
+CorrelationSums correlationSums(const std::uint8_t* b, const std::uint8_t* l, std::size_t count) {
+  return HWY_DYNAMIC_DISPATCH(correlationSumsVector)(b, l, count);
+}
+
+CorrelationSums correlationSumsScalar(const std::uint8_t* b, const std::uint8_t* l,
+                                      std::size_t count) {
+  CorrelationSums sums;
+  for (std::size_t u = 0; u < count; ++u) {
+    const std::uint64_t bu = b[u];
+    const std::uint64_t lu = l[u];
+    sums.sum_b += bu;
+    sums.sum_l += lu;
+    sums.sum_bb += bu * bu;
+    sums.sum_ll += lu * lu;
+    sums.sum_bl += bu * lu;
+  }
+  return sums;
 }
 
 }  // namespace occmap::lighting_steps

@@ -3,8 +3,8 @@
 // Highway, dispatched at run time to the best target this CPU has, and plain scalar C++, the
 // yardstick the tests hold every SIMD target to. All are integer arithmetic, or sums of integers
 // in doubles (exact in any order) and one comparison done with the scalar's very operations, so
-// every target gives the same results. Internal to core/lighting_model.cpp and
-// core/local_light.cpp, and exposed for their tests.
+// every target gives the same results. Internal to core/lighting_model.cpp, core/local_light.cpp
+// and core/view_motion.cpp, and exposed for their tests.
 
 #include <cstddef>
 #include <cstdint>
@@ -66,5 +66,18 @@ TileSums tileSums(const std::uint8_t* frame, std::ptrdiff_t frame_stride,
 TileSums tileSumsScalar(const std::uint8_t* frame, std::ptrdiff_t frame_stride,
                         const std::uint8_t* background, std::ptrdiff_t background_stride, int width,
                         int height, int saturated);
+
+// The sums a correlation of two rows of `count` pixels (at most 65536) needs: of b, l, b², l² and
+// b x l (core/view_motion.h's zero-mean normalised cross-correlation).
+struct CorrelationSums {
+  std::uint64_t sum_b = 0;
+  std::uint64_t sum_l = 0;
+  std::uint64_t sum_bb = 0;
+  std::uint64_t sum_ll = 0;
+  std::uint64_t sum_bl = 0;
+};
+CorrelationSums correlationSums(const std::uint8_t* b, const std::uint8_t* l, std::size_t count);
+CorrelationSums correlationSumsScalar(const std::uint8_t* b, const std::uint8_t* l,
+                                      std::size_t count);
 
 }  // namespace occmap::lighting_steps

@@ -10,6 +10,8 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
+#include "core/lighting_steps.h"
+
 namespace occmap {
 namespace {
 
@@ -140,34 +142,22 @@ double ViewMotionEstimator::zncc(const Image& background, const Image& live, Win
   const std::int64_t area =
       static_cast<std::int64_t>(window.x1 - window.x0) * (window.y1 - window.y0);
   if (x1 <= x0 || y1 <= y0 || 2 * static_cast<std::int64_t>(x1 - x0) * (y1 - y0) < area) return -1;
-  std::int64_t sum_b = 0, sum_l = 0, sum_bb = 0, sum_ll = 0, sum_bl = 0;
+  lighting_steps::CorrelationSums sums;
   for (int y = y0; y < y1; ++y) {
-    const std::uint8_t* b = background.row(y);
-    const std::uint8_t* l = live.row(y + dy) + dx;
-    // Sums of a row fit 32 bits, its products 64.
-    std::uint64_t row_bb = 0, row_ll = 0, row_bl = 0;
-    std::uint32_t row_b = 0, row_l = 0;
-    for (int x = x0; x < x1; ++x) {
-      const std::uint32_t bx = b[x];
-      const std::uint32_t lx = l[x];
-      row_b += bx;
-      row_l += lx;
-      row_bb += bx * bx;
-      row_ll += lx * lx;
-      row_bl += bx * lx;
-    }
-    sum_b += row_b;
-    sum_l += row_l;
-    sum_bb += static_cast<std::int64_t>(row_bb);
-    sum_ll += static_cast<std::int64_t>(row_ll);
-    sum_bl += static_cast<std::int64_t>(row_bl);
+    const lighting_steps::CorrelationSums row = lighting_steps::correlationSums(
+        background.row(y) + x0, live.row(y + dy) + dx + x0, static_cast<std::size_t>(x1 - x0));
+    sums.sum_b += row.sum_b;
+    sums.sum_l += row.sum_l;
+    sums.sum_bb += row.sum_bb;
+    sums.sum_ll += row.sum_ll;
+    sums.sum_bl += row.sum_bl;
   }
   const double n = static_cast<double>(x1 - x0) * (y1 - y0);
-  const double b = static_cast<double>(sum_b);
-  const double l = static_cast<double>(sum_l);
-  const double covariance = n * static_cast<double>(sum_bl) - b * l;
-  const double var_b = n * static_cast<double>(sum_bb) - b * b;
-  const double var_l = n * static_cast<double>(sum_ll) - l * l;
+  const double b = static_cast<double>(sums.sum_b);
+  const double l = static_cast<double>(sums.sum_l);
+  const double covariance = n * static_cast<double>(sums.sum_bl) - b * l;
+  const double var_b = n * static_cast<double>(sums.sum_bb) - b * b;
+  const double var_l = n * static_cast<double>(sums.sum_ll) - l * l;
   const double min_var = n * n * kMinRegionDeviation * kMinRegionDeviation;
   if (var_b < min_var || var_l < min_var) return -1;  // nothing to match: flat, dark or covered
   return covariance / std::sqrt(var_b * var_l);

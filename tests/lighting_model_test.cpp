@@ -111,7 +111,8 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
   std::uniform_int_distribution<int> fine_value(0, 65535);
   std::uniform_int_distribution<int> inverse(16384, 262144);  // gains from 4 to 1/4
   std::uniform_int_distribution<int> alpha(1, 32768);
-  std::size_t rows = 0, moved_pixels = 0, agreeing = 0, disagreeing_total = 0, tile_sums = 0;
+  std::size_t rows = 0, moved_pixels = 0, agreeing = 0, disagreeing_total = 0, tile_sums = 0,
+              correlations = 0;
   for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
     SCOPED_TRACE(hwy::TargetName(target));
     hwy::SetSupportedTargetsForTest(target);
@@ -189,6 +190,18 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
           tile_sums += tile.sum_lb > 0 ? 1 : 0;
         }
       }
+      // A correlation's sums (core/view_motion.h), of the live row against the divided one.
+      const lighting_steps::CorrelationSums correlation = lighting_steps::correlationSums(
+          live.data(), expected_out.data(), static_cast<std::size_t>(width));
+      const lighting_steps::CorrelationSums expected_correlation =
+          lighting_steps::correlationSumsScalar(live.data(), expected_out.data(),
+                                                static_cast<std::size_t>(width));
+      ASSERT_EQ(correlation.sum_b, expected_correlation.sum_b) << "width " << width;
+      ASSERT_EQ(correlation.sum_l, expected_correlation.sum_l) << "width " << width;
+      ASSERT_EQ(correlation.sum_bb, expected_correlation.sum_bb) << "width " << width;
+      ASSERT_EQ(correlation.sum_ll, expected_correlation.sum_ll) << "width " << width;
+      ASSERT_EQ(correlation.sum_bl, expected_correlation.sum_bl) << "width " << width;
+      correlations += correlation.sum_bl > 0 ? 1 : 0;
       ++rows;
     }
   }
@@ -198,6 +211,7 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
   EXPECT_GT(agreeing, 1000u);
   EXPECT_GT(disagreeing_total, 1000u);
   EXPECT_GT(tile_sums, 100u);
+  EXPECT_GT(correlations, 60u);
 }
 
 TEST(LightingModel, TheEmptyFloorStaysUnchangedUnderAGainFromHalfToDouble) {
