@@ -267,7 +267,7 @@ ViewMotion ViewMotionEstimator::estimate(ImageView live) {
   follow(3, true);
   if (motion.regions >= 3) follow(5, false);
   motion.moved = motion.regions >= 3 && motion.match >= kMinMatch &&
-                 motion.match - motion.match_unmoved >= kMinGainOverUnmoved &&
+                 1 - motion.match <= kMostMismatchLeft * (1 - motion.match_unmoved) &&
                  motion.largestDisplacementPx(width, height) >= kMinDisplacementPx;
   return motion;
 }
