@@ -16,15 +16,7 @@ inline constexpr int kSlowdown = 6;
 inline constexpr bool kSanitized = false;
 inline constexpr int kSlowdown = 1;
 #endif
-// ThreadSanitizer finds races between threads. A test of long single-threaded work (an `occmap
-// fuse` of many frame sets, whose only threads build its tables, as every other fuse test's do)
-// gains nothing from it and costs the TSan phase tens of seconds: such a test skips there, saying
-// so, and runs in the plain and ASan builds.
-#if defined(__SANITIZE_THREAD__)
-inline constexpr bool kThreadSanitized = true;
-#else
-inline constexpr bool kThreadSanitized = false;
-#endif
+
 
 // A deadline for something that must happen eventually: as given in the plain build, kSlowdown
 // times longer under a sanitizer.

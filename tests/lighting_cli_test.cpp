@@ -1,0 +1,209 @@
+// The light's model through `occmap fuse` as a user runs it (docs/lighting.md): changing light,
+// light in part of the room, a knocked camera re-posed, a day in the room. Each runs `occmap fuse`
+// in a process of its own and starts no thread itself (SINGLE_THREADED): its maps come from the
+// same code in every test, and the only threads of `occmap fuse` (its table build) are checked
+// under ThreadSanitizer by occmap_cli_test's fuse tests, so these stay out of the TSan phase,
+// where they would take over a minute.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "capture/image_file.h"
+#include "command_runner.h"
+#include "sim_room_config.h"
+#include "temporary_folder.h"
+
+namespace occmap {
+namespace {
+
+using testing::readWhole;
+using testing::runCommand;
+using testing::TemporaryFolder;
+using testing::writeText;
+
+const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
+
+// `occmap fuse` of the config `text` (simulated cameras) for `frames` frame sets, written to
+// folder/name: checks that it ran and found every object in every map, and returns the share of the
+// cells a camera sees clearly that are free, in %, as it prints it (-1 when it does not).
+double fuseSeenFree(const std::filesystem::path& folder, const std::string& name,
+                    const std::string& text, int frames) {
+  writeText(folder / name, text);
+  const auto result =
+      runCommand({kOccmap, "fuse", "--config", (folder / name).string(), "--out",
+                  (folder / (name + "-maps")).string(), "--frames", std::to_string(frames)});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  const std::string found = "objects found " + std::to_string(5 * frames) + " of " +
+                            std::to_string(5 * frames) + " (100.00 %)";
+  EXPECT_NE(result.out.find(found), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
+      << result.out;
+  const std::string label = "% of cells a camera sees clearly are free";
+  const std::size_t at = result.out.find(label);
+  EXPECT_NE(at, std::string::npos) << result.out;
+  const std::size_t start = result.out.rfind("; ", at);
+  return at == std::string::npos ? -1.0 : std::atof(result.out.c_str() + start + 2);
+}
+
+// The config `text` with `lighting` (a flow map) set for every camera under its fusion key, or ""
+// when the text has no fusion key to put it under.
+std::string withLighting(const std::string& text, const std::string& lighting) {
+  const std::string fusion = "fusion:\n";
+  const std::size_t at = text.find(fusion);
+  if (at == std::string::npos) return "";
+  std::string out = text;
+  out.insert(at + fusion.size(), "  lighting: " + lighting + "\n");
+  return out;
+}
+
+// The simulated room while its light steps and ramps (sim://room-light: 1, 0.6, 0.6 -> 1.5, 1.5
+// in four seconds) against backgrounds taken at 1: with the light's model (the default) the map
+// is what it is in constant light; with `lighting: {adapt: false}` (the paper's fixed background)
+// most of the floor reads occupied. Every object is found either way.
+TEST(OccmapFuse, TheLightsModelKeepsTheFloorFreeWhileTheLightChanges) {
+  TemporaryFolder folder;
+  const std::string text = testing::inCoarseMap(
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-light"));
+  const std::string fixed_text = withLighting(text, "{adapt: false}");
+  ASSERT_NE(fixed_text, "") << "examples/sim-room.yaml changed: not its map, or no fusion key";
+  // A whole cycle of the light with the model; without it, its first two seconds (1, then 0.6)
+  // are enough to show what a fixed background does.
+  const double adapted = fuseSeenFree(folder.path(), "adapted.yaml", text, 120);
+  const double fixed = fuseSeenFree(folder.path(), "fixed.yaml", fixed_text, 60);
+  std::printf(
+      "cells a camera sees clearly that are free: %.2f %% with the light's model, %.2f %% "
+      "with a fixed background\n",
+      adapted, fixed);
+  EXPECT_GE(adapted, 98.0);
+  EXPECT_LT(fixed, 75.0) << "the light's step should defeat a fixed background";
+}
+
+// Light in parts of the room (sim://room-lamps: a patch of sun crossing the floor, a lamp's pool
+// from 1 s, a shade from 2 s): the local light keeps more of the lit floor free than the gain
+// alone, and every object is still found in every map.
+TEST(OccmapFuse, TheLocalLightKeepsMoreOfTheLitFloorFreeAndFindsEveryObject) {
+  TemporaryFolder folder;
+  const std::string text = testing::inCoarseMap(
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-lamps"));
+  const std::string gain_text = withLighting(text, "{local: false}");
+  ASSERT_NE(gain_text, "") << "examples/sim-room.yaml changed: not its map, or no fusion key";
+  constexpr int kFrames = 75;  // 2.5 s: the sun all along, the lamp for 1.5 s, the shade for 0.5 s
+  const double local = fuseSeenFree(folder.path(), "local.yaml", text, kFrames);
+  const double gain_alone = fuseSeenFree(folder.path(), "gain.yaml", gain_text, kFrames);
+  std::printf(
+      "cells a camera sees clearly that are free: %.2f %% with the local light, %.2f %% with the "
+      "gain alone\n",
+      local, gain_alone);
+  EXPECT_GE(local, gain_alone + 2.0);
+}
+
+// A camera knocked on its mount (sim://room-knock: c1 turned by 1 degree at 1 s, frame 30): from
+// that frame on its view is no change of light, so its frames are left out (its cells counted by
+// the others alone, every object still found) and the run says it moved, by about a degree; its
+// view still for 2 s, it is re-posed (frame 90) and back in the maps, which are then the maps of
+// the room where nobody knocked it but for a thin strip along its view's border (that its old
+// background never saw) and a few cells of its blurred background's edges.
+TEST(OccmapFuse, AKnockedCameraIsLeftOutThenRePosedAndItsMapsAreTheUnknockedRoomsAgain) {
+  TemporaryFolder folder;
+  const std::string room =
+      testing::inCoarseMap(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"));
+  ASSERT_NE(room, "") << "examples/sim-room.yaml changed: not the map inCoarseMap knows";
+  folder.write("knock.yaml", testing::inScene(room, "room-knock"));
+  folder.write("room.yaml", room);
+  constexpr int kFrames = 110;
+  const auto fuse = [&](const std::string& name) {
+    return runCommand({kOccmap, "fuse", "--config", (folder / (name + ".yaml")).string(), "--out",
+                       (folder / name).string(), "--frames", std::to_string(kFrames)});
+  };
+  const auto result = fuse("knock");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  ASSERT_EQ(fuse("room").exit_code, 0);
+  EXPECT_NE(result.out.find("objects found 550 of 550 (100.00 %)"), std::string::npos)
+      << result.out;
+  EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
+      << result.out;
+  const std::string moved =
+      "camera c1: 61 frames left out, no change of light explaining them; "
+      "its view moved at map 30: turned ";
+  const std::size_t at = result.out.find(moved);
+  ASSERT_NE(at, std::string::npos) << result.out;
+  EXPECT_NEAR(std::atof(result.out.c_str() + at + moved.size()), 1.0, 0.1) << result.out;
+  const std::string reposed = "; re-posed at map 90 (turned ";
+  const std::size_t reposed_at = result.out.find(reposed);
+  ASSERT_NE(reposed_at, std::string::npos) << result.out;
+  EXPECT_NEAR(std::atof(result.out.c_str() + reposed_at + reposed.size()), 1.0, 0.05) << result.out;
+  for (const char* steady : {"camera c0:", "camera c2:", "camera c3:"}) {
+    EXPECT_EQ(result.out.find(steady), std::string::npos) << result.out;
+  }
+  // The maps once it is back, against the unknocked room's.
+  for (int n = 91; n < kFrames; n += 6) {
+    char name[32];
+    std::snprintf(name, sizeof name, "map_%06d.png", n);
+    std::string error;
+    const auto knocked = readGreyImage(folder / "knock" / name, error);
+    ASSERT_TRUE(knocked) << error;
+    const auto unknocked = readGreyImage(folder / "room" / name, error);
+    ASSERT_TRUE(unknocked) << error;
+    std::size_t same = 0;
+    const std::size_t cells = static_cast<std::size_t>(knocked->width()) * knocked->height();
+    for (std::size_t i = 0; i < cells; ++i) same += knocked->data()[i] == unknocked->data()[i];
+    EXPECT_GE(static_cast<double>(same) / static_cast<double>(cells), 0.99) << name;
+  }
+}
+
+// Ten simulated minutes of a day in the room (sim://room-day: the light's +-50 % cycle, the
+// camera's exposure steps, a lamp, a patch of sun, shadows at people's feet, a grey box only 26
+// to 60 grey levels below the floor put down and left, a person standing still for four minutes,
+// c1 knocked by 1 degree at 450 s), a frame set every 2 s on the 4 cm map: every object is found
+// in every map (the box and the still person never freed), the knocked camera is left out from the
+// knock's frame and re-posed 2 s later, and no other camera is ever left out. The floor kept free
+// is reported (docs/lighting.md; the issue asks 98 % of the clearly seen cells at every map a
+// second after an event, which the lamp and the shadows still deny) and held where it is now.
+TEST(OccmapFuse, ADayInTheRoomFindsEveryObjectAndRePosesTheKnockedCamera) {
+  TemporaryFolder folder;
+  std::string text = testing::inCoarseMap(
+      testing::inScene(readWhole(OCCMAP_SOURCE_DIR "/examples/sim-room.yaml"), "room-day"));
+  ASSERT_NE(text, "") << "examples/sim-room.yaml changed: not the map inCoarseMap knows";
+  for (std::size_t at = text.find("\"sim://room-day/c"); at != std::string::npos;
+       at = text.find("\"sim://room-day/c", at + 1)) {
+    const std::size_t end = text.find('}', at);
+    ASSERT_NE(end, std::string::npos);
+    text.insert(end, ", fps: 0.5");
+  }
+  folder.write("day.yaml", text);
+  const auto result = runCommand({kOccmap, "fuse", "--config", (folder / "day.yaml").string(),
+                                  "--out", (folder / "maps").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  std::printf("%s", result.out.c_str());
+  EXPECT_NE(result.out.find("wrote 300 maps"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
+      << result.out;
+  EXPECT_NE(result.out.find("objects found 1890 of 1890 (100.00 %)"), std::string::npos)
+      << result.out;
+  const std::string moved =
+      "camera c1: 2 frames left out, no change of light explaining them; "
+      "its view moved at map 225: turned ";
+  const std::size_t at = result.out.find(moved);
+  ASSERT_NE(at, std::string::npos) << result.out;
+  EXPECT_NEAR(std::atof(result.out.c_str() + at + moved.size()), 1.0, 0.1) << result.out;
+  EXPECT_NE(result.out.find("; re-posed at map 226 (turned "), std::string::npos) << result.out;
+  for (const char* steady : {"camera c0:", "camera c2:", "camera c3:"}) {
+    EXPECT_EQ(result.out.find(steady), std::string::npos) << result.out;
+  }
+  const std::string label = "% of cells a camera sees clearly are free";
+  const std::size_t free_at = result.out.find(label);
+  ASSERT_NE(free_at, std::string::npos) << result.out;
+  EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind("; ", free_at) + 2), 93.0)
+      << result.out;
+  const std::string worst = "clearly free";
+  const std::size_t worst_at = result.out.find(worst);
+  ASSERT_NE(worst_at, std::string::npos) << result.out;
+  EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind(" has ", worst_at) + 5), 87.0)
+      << result.out;
+}
+
+}  // namespace
+}  // namespace occmap
