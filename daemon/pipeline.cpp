@@ -317,9 +317,9 @@ void Pipeline::noteLighting(std::size_t k, bool explained) {
   } else {
     logLine(LogLevel::kWarning,
             "camera %s: no change of light explains its view (%.0f %% of its pixels agree with "
-            "one gain): bumped, covered, lights out, or crowded; its cells count as unseen until "
-            "it is (occmap control recapture-background takes a new background; %llu changes "
-            "not shown)",
+            "one gain): covered, lights out, knocked, or hidden by a crowd; its cells count as "
+            "unseen until it is (a knocked camera is re-posed by itself; occmap control "
+            "recapture-background takes a new background; %llu changes not shown)",
             prepared_.rig.cameras()[k].name.c_str(), 100 * agreement,
             static_cast<unsigned long long>(suppressed));
   }
