@@ -60,7 +60,7 @@ class ViewMotionEstimator {
   // `background` is copied (into its pyramid). Images smaller than 32 x 24 are never "moved".
   explicit ViewMotionEstimator(ImageView background);
 
-  // The motion of `live` (the background's size) against the background. Some tens of
+  // The motion of `live` (the background's size) against the background. Some
   // milliseconds for 640 x 480: meant for a degraded camera's frame now and then, not every frame.
   ViewMotion estimate(ImageView live);
 
