@@ -157,9 +157,10 @@ TEST(OccmapFuse, AKnockedCameraIsLeftOutThenRePosedAndItsMapsAreTheUnknockedRoom
 // Ten simulated minutes of a day in the room (sim://room-day: the light's +-50 % cycle, the
 // camera's exposure steps, a lamp, a patch of sun, shadows at people's feet, a grey box only 26
 // to 60 grey levels below the floor put down and left, a person standing still for four minutes,
-// c1 knocked by 1 degree at 450 s), a frame set every 2 s on the 4 cm map: every object is found
+// c1 knocked by 1 degree at 450 s), a frame set every 5 s on the 4 cm map: every object is found
 // in every map (the box and the still person never freed), the knocked camera is left out from the
-// knock's frame and re-posed 2 s later, and no other camera is ever left out. The floor kept free
+// knock's frame and re-posed at the next (its view still for at least 2 s), and no other camera
+// is ever left out. The floor kept free
 // is reported (docs/lighting.md; the issue asks 98 % of the clearly seen cells at every map a
 // second after an event, which the lamp and the shadows still deny) and held where it is now.
 TEST(OccmapFuse, ADayInTheRoomFindsEveryObjectAndRePosesTheKnockedCamera) {
@@ -171,25 +172,25 @@ TEST(OccmapFuse, ADayInTheRoomFindsEveryObjectAndRePosesTheKnockedCamera) {
        at = text.find("\"sim://room-day/c", at + 1)) {
     const std::size_t end = text.find('}', at);
     ASSERT_NE(end, std::string::npos);
-    text.insert(end, ", fps: 0.5");
+    text.insert(end, ", fps: 0.2");
   }
   folder.write("day.yaml", text);
   const auto result = runCommand({kOccmap, "fuse", "--config", (folder / "day.yaml").string(),
                                   "--out", (folder / "maps").string()});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   std::printf("%s", result.out.c_str());
-  EXPECT_NE(result.out.find("wrote 300 maps"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("wrote 120 maps"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
       << result.out;
-  EXPECT_NE(result.out.find("objects found 1890 of 1890 (100.00 %)"), std::string::npos)
+  EXPECT_NE(result.out.find("objects found 756 of 756 (100.00 %)"), std::string::npos)
       << result.out;
   const std::string moved =
       "camera c1: 2 frames left out, no change of light explaining them; "
-      "its view moved at map 225: turned ";
+      "its view moved at map 90: turned ";
   const std::size_t at = result.out.find(moved);
   ASSERT_NE(at, std::string::npos) << result.out;
   EXPECT_NEAR(std::atof(result.out.c_str() + at + moved.size()), 1.0, 0.1) << result.out;
-  EXPECT_NE(result.out.find("; re-posed at map 226 (turned "), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("; re-posed at map 91 (turned "), std::string::npos) << result.out;
   for (const char* steady : {"camera c0:", "camera c2:", "camera c3:"}) {
     EXPECT_EQ(result.out.find(steady), std::string::npos) << result.out;
   }
