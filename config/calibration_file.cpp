@@ -650,6 +650,39 @@ LoadedCalibration loadCalibration(const std::filesystem::path& file,
                    ".yaml)");
 }
 
+std::string openCvYamlText(const OpenCvParameters& p) {
+  const auto matrix = [](const char* name, int rows, const std::vector<double>& values) {
+    std::string text =
+        std::string(name) + ": !!opencv-matrix\n   rows: " + std::to_string(rows) +
+        "\n   cols: " + std::to_string(values.size() / static_cast<std::size_t>(rows)) +
+        "\n   dt: d\n   data: [";
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      char number[32];
+      std::snprintf(number, sizeof number, "%s%.17g", i == 0 ? " " : ", ", values[i]);
+      text += number;
+    }
+    return text + " ]\n";
+  };
+  const auto& [k1, k2, p1, p2, k3] = p.distortion;
+  return "%YAML:1.0\n---\nimage_width: " + std::to_string(p.width) +
+         "\nimage_height: " + std::to_string(p.height) + "\n" +
+         matrix("camera_matrix", 3, {p.fx, 0, p.cx, 0, p.fy, p.cy, 0, 0, 1}) +
+         matrix("distortion_coefficients", 5, {k1, k2, p1, p2, k3}) +
+         matrix("rvec", 3, {p.rvec.x(), p.rvec.y(), p.rvec.z()}) +
+         matrix("tvec", 3, {p.tvec.x(), p.tvec.y(), p.tvec.z()});
+}
+
+std::optional<CalibrationText> calibrationText(const CameraModel& model,
+                                               const std::string& camera_name) {
+  if (const auto* tsai = dynamic_cast<const TsaiCamera*>(&model)) {
+    return CalibrationText{tsaiXmlText(tsai->parameters(), camera_name), ".xml"};
+  }
+  if (const auto* opencv = dynamic_cast<const OpenCvCamera*>(&model)) {
+    return CalibrationText{openCvYamlText(opencv->parameters()), ".yaml"};
+  }
+  return std::nullopt;
+}
+
 std::string tsaiXmlText(const TsaiParameters& p, const std::string& camera_name) {
   char text[1024];
   std::snprintf(text, sizeof text,

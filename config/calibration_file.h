@@ -33,6 +33,18 @@ std::string tsaiXmlText(const TsaiParameters& parameters, const std::string& cam
 // (docs/fuzzing.md); errors carry the line of the value (a missing key: none).
 OpenCvParameters loadOpenCvYaml(const std::filesystem::path& file);
 OpenCvParameters parseOpenCvYaml(std::string_view text, const std::string& file_name);
+// The same parameters as that YAML (cv::FileStorage's layout), in full precision: what
+// parseOpenCvYaml reads back exactly.
+std::string openCvYamlText(const OpenCvParameters& parameters);
+
+// A model's calibration file of its own kind (Tsai XML, OpenCV YAML) and the file name extension
+// that says so (".xml", ".yaml"); nothing for another kind of model.
+struct CalibrationText {
+  std::string text;
+  std::string extension;
+};
+std::optional<CalibrationText> calibrationText(const CameraModel& model,
+                                               const std::string& camera_name);
 
 // A calibration file of either kind, told apart by content: XML ("<?xml" or "<" first) is Tsai,
 // "%YAML" first or a .yml/.yaml name is OpenCV YAML.

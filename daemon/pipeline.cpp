@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <stdexcept>
 
@@ -11,6 +13,7 @@
 
 #include "base/clock.h"
 #include "base/log.h"
+#include "config/calibration_file.h"
 #include "core/opencv_camera.h"
 #include "core/pacing.h"
 #include "transport/control_message.h"
@@ -402,11 +405,37 @@ void Pipeline::repose(std::size_t k, const Image& background) {
   camera.reposes.fetch_add(1, std::memory_order_relaxed);
   camera.control.view_moved.store(false, std::memory_order_relaxed);
   const Eigen::Vector3d rvec = rodriguesFromRotation(reposed->camera.model().pose().rotation);
+  const std::string saved = saveReposedCalibration(rig_camera.name, reposed->camera);
   logLine(LogLevel::kNotice,
           "camera %s: re-posed, turned %.2f degrees: its pose is corrected in memory and it is "
           "back in the maps. Its calibration file still has the old pose: the new rotation is "
-          "rvec [%.6f, %.6f, %.6f] (OpenCV's Rodrigues vector, world to camera)",
-          rig_camera.name.c_str(), degrees, rvec.x(), rvec.y(), rvec.z());
+          "rvec [%.6f, %.6f, %.6f] (OpenCV's Rodrigues vector, world to camera); the whole "
+          "calibration %s",
+          rig_camera.name.c_str(), degrees, rvec.x(), rvec.y(), rvec.z(), saved.c_str());
+}
+
+// A re-posed camera's calibration, in the kind of file it came from, saved to the state directory
+// (written aside, then renamed: never a half-written file under the name); what happened, in
+// words for the log.
+std::string Pipeline::saveReposedCalibration(const std::string& name,
+                                             const occmap::Camera& camera) const {
+  if (!options_.state_directory) return "is not saved (no state directory)";
+  const std::optional<CalibrationText> text = calibrationText(camera.model(), name);
+  if (!text) return "is not saved (a lens model occmap cannot write)";
+  const std::filesystem::path file =
+      *options_.state_directory / ("calibration-" + name + text->extension);
+  const std::filesystem::path part =
+      *options_.state_directory / (".calibration-" + name + ".part" + text->extension);
+  {
+    std::ofstream out(part, std::ios::binary | std::ios::trunc);
+    out << text->text;
+    out.close();
+    if (!out) return "is not saved (cannot write " + part.string() + ")";
+  }
+  std::error_code error;
+  std::filesystem::rename(part, file, error);
+  if (error) return "is not saved (" + file.string() + ": " + error.message() + ")";
+  return "is saved to " + file.string();
 }
 
 void Pipeline::loseCamera(std::size_t k, const char* why) {

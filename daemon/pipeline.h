@@ -176,6 +176,7 @@ class Pipeline {
   void noteLighting(std::size_t camera, bool explained);
   void noteView(std::size_t camera);
   void repose(std::size_t camera, const Image& background);
+  std::string saveReposedCalibration(const std::string& name, const occmap::Camera& camera) const;
   void fusionLoop();
   void noteState(std::size_t camera, CameraState state, std::int64_t now);
   void fuse(std::int64_t now);

@@ -21,6 +21,7 @@
 
 #include "config/input_error.h"
 #include "temporary_folder.h"
+#include "tsai_xml.h"
 
 namespace occmap {
 namespace {
@@ -297,6 +298,42 @@ TEST(OpenCvYaml, LoadsWhatCvFileStorageWrites) {
     EXPECT_EQ(p.rvec[i], file.rvec.at<double>(i)) << i;
     EXPECT_EQ(p.tvec[i], file.tvec.at<double>(i)) << i;
   }
+}
+
+// What occmap writes of a model (a re-posed camera's calibration, core/repose.h) reads back the
+// same, bit for bit, in both kinds; OpenCV's own reader takes the YAML too.
+TEST(CalibrationText, ReadsBackExactlyInBothKinds) {
+  const TemporaryFolder folder;
+  const OpenCvFile file;
+  const OpenCvParameters p = loadOpenCvYaml(file.write(folder.file("c0.yml")));
+  const auto yaml = calibrationText(OpenCvCamera(p), "c0");
+  ASSERT_TRUE(yaml);
+  EXPECT_EQ(yaml->extension, ".yaml");
+  const OpenCvParameters again = parseOpenCvYaml(yaml->text, "written.yaml");
+  EXPECT_EQ(again.width, p.width);
+  EXPECT_EQ(again.height, p.height);
+  EXPECT_EQ(again.fx, p.fx);
+  EXPECT_EQ(again.fy, p.fy);
+  EXPECT_EQ(again.cx, p.cx);
+  EXPECT_EQ(again.cy, p.cy);
+  EXPECT_EQ(again.distortion, p.distortion);
+  EXPECT_EQ(again.rvec, p.rvec);
+  EXPECT_EQ(again.tvec, p.tvec);
+  cv::FileStorage storage(yaml->text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+  cv::Mat rvec;
+  storage["rvec"] >> rvec;
+  ASSERT_EQ(rvec.total(), 3u);
+  EXPECT_EQ(rvec.at<double>(2), p.rvec.z());
+
+  const TsaiParameters tsai = parseTsaiXml(testing::kDownwardXml, "down.xml");
+  const auto xml = calibrationText(TsaiCamera(tsai), "c1");
+  ASSERT_TRUE(xml);
+  EXPECT_EQ(xml->extension, ".xml");
+  const TsaiParameters tsai_again = parseTsaiXml(xml->text, "written.xml");
+  EXPECT_EQ(tsai_again.rx, tsai.rx);
+  EXPECT_EQ(tsai_again.tz, tsai.tz);
+  EXPECT_EQ(tsai_again.focal, tsai.focal);
+  EXPECT_EQ(tsai_again.kappa1, tsai.kappa1);
 }
 
 // What the loader builds projects as OpenCV does, on points anywhere inside the model's valid

@@ -3,14 +3,20 @@
 // refusal, no reply (exit 3) under another key, a reload (SIGHUP) going back to the config's
 // values; and --make-key. Skips without a network namespace (root or CAP_SYS_ADMIN).
 #include <chrono>
+#include <filesystem>
+#include <numbers>
 #include <thread>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <sys/stat.h>
 
 #include "capture/image_file.h"
+#include "capture/sim/scene.h"
 #include "child_process.h"
+#include "config/calibration_file.h"
+#include "core/tsai_camera.h"
 #include "network_namespace.h"
 #include "sim_room_config.h"
 #include "temporary_folder.h"
@@ -124,7 +130,10 @@ TEST(OccmapStatus, SaysWhichCameraWasMovedHowFarItTurnedAndThatItWasRePosed) {
     text.replace(at, std::string("sim://room/").size(), "sim://room-knock/");
   }
   const auto config = folder.write("room.yaml", text);
-  ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "occmapd");
+  // The state directory systemd gives it (StateDirectory=): where the corrected calibration goes.
+  std::filesystem::create_directories(folder / "state");
+  ChildProcess daemon({kOccmapd, "--config", config.string()}, folder / "occmapd",
+                      {{"STATE_DIRECTORY", (folder / "state").string()}});
   ASSERT_TRUE(waitForError(daemon, "ready:", testing::eventually(30s))) << daemon.err();
   ASSERT_TRUE(
       waitForError(daemon, "camera c1: its view moved: it turned", testing::eventually(10s)))
@@ -167,6 +176,21 @@ TEST(OccmapStatus, SaysWhichCameraWasMovedHowFarItTurnedAndThatItWasRePosed) {
   result = runCommand({kOccmap, "status"});
   EXPECT_NE(result.out.find("c1: light 1.00 x the background's"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("re-posed 1 time after a knock"), std::string::npos) << result.out;
+  // The corrected calibration, saved in the file kind it came from (the scene's cameras are
+  // Tsai's): the same camera, turned by the degree it was knocked.
+  EXPECT_NE(daemon.err().find("the whole calibration is saved to " +
+                              (folder / "state" / "calibration-c1.xml").string()),
+            std::string::npos)
+      << daemon.err();
+  const TsaiParameters before = sim::makeScene("room")->cameras()[1].calibration;
+  const TsaiParameters after = loadTsaiXml(folder / "state" / "calibration-c1.xml");
+  const Eigen::Matrix3d knocked =
+      rotationFromTsaiAngles(after.rx, after.ry, after.rz) *
+      rotationFromTsaiAngles(before.rx, before.ry, before.rz).transpose();
+  EXPECT_NEAR(Eigen::AngleAxisd(knocked).angle() * 180 / std::numbers::pi, 1.0, 0.1);
+  EXPECT_EQ(after.focal, before.focal);
+  EXPECT_NEAR((TsaiCamera(after).pose().centre() - TsaiCamera(before).pose().centre()).norm(), 0,
+              1e-6);
   daemon.signal(SIGTERM);
   EXPECT_EQ(daemon.waitExit(testing::eventually(5s)), 0) << daemon.err();
 }
