@@ -67,13 +67,8 @@ std::optional<int> Camera::pixelIndexAt(const Eigen::Vector2d& stream) const {
 Eigen::Vector3d Camera::centreMetres() const { return model_->pose().centre() * metres_per_unit_; }
 
 Camera Camera::turned(const Eigen::Vector3d& turn) const {
-  const Eigen::Matrix3d q =
-      turn.norm() > 0 ? Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix()
-                      : Eigen::Matrix3d::Identity();
-  // Xc' = Q Xc = Q (R Xw + T): the same centre, the view turned.
-  const Pose& pose = model_->pose();
   Camera out = *this;
-  out.model_ = model_->withPose(Pose{q * pose.rotation, q * pose.translation});
+  out.model_ = model_->withPose(turnedOnItsMount(model_->pose(), turn));
   return out;
 }
 

@@ -80,6 +80,13 @@ Eigen::Vector3d tsaiAnglesFromRotation(const Eigen::Matrix3d& r) {
   return {std::atan2(r(2, 1), r(2, 2)), std::asin(-r(2, 0)), std::atan2(r(1, 0), r(0, 0))};
 }
 
+Pose turnedOnItsMount(const Pose& pose, const Eigen::Vector3d& turn) {
+  const double angle = turn.norm();
+  const Eigen::Matrix3d q = angle > 0 ? Eigen::AngleAxisd(angle, turn / angle).toRotationMatrix()
+                                      : Eigen::Matrix3d::Identity();
+  return Pose{q * pose.rotation, q * pose.translation};
+}
+
 Pose poseLookingAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
   const Eigen::Vector3d forward = (target - position).normalized();
   const Eigen::Vector3d right = forward.cross(Eigen::Vector3d::UnitZ()).normalized();

@@ -89,6 +89,11 @@ Eigen::Matrix3d rotationFromTsaiAngles(double rx, double ry, double rz);
 // The angles (rx, ry, rz) of a rotation in that convention (|ry| < pi/2 taken).
 Eigen::Vector3d tsaiAnglesFromRotation(const Eigen::Matrix3d& rotation);
 
+// The pose of a camera turned on its mount by `turn` (axis times angle in radians, in camera
+// coordinates: x right, y down, z along the optical axis): Xc' = Q Xc = Q (R Xw + T), the same
+// centre (a knocked camera, core/repose.h).
+Pose turnedOnItsMount(const Pose& pose, const Eigen::Vector3d& turn);
+
 // The pose of a camera at `position` looking at `target` with the image's rows horizontal (image +x
 // to the right, +y down, world z up), for simulated scenes and tests.
 Pose poseLookingAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target);

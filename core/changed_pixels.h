@@ -3,8 +3,9 @@
 // `occmap fuse` repeats it, so that off-line maps equal live ones: the light's model (when the
 // config adapts to the light), the difference into changed-pixel tiles, and the model's drift.
 // When the model does not explain a frame, whether the camera was moved (core/view_motion.h), at
-// most once a second of capture time (the first such frame allocates the check's pyramids), and when a moved camera is steady enough to be re-posed
-// (core/repose.h: the host builds the re-posed camera and hands it back).
+// most once a second of capture time (the first such frame allocates the check's pyramids), and
+// when a moved camera is steady enough to be re-posed (core/repose.h: the host builds the
+// re-posed camera and hands it back).
 // No I/O, no threads; the model is made at the first frame and again only when the background is
 // replaced (a recapture or a re-pose), never per frame.
 
@@ -79,7 +80,8 @@ class ChangedPixels {
       turn_ = moved_ ? cameraTurn(camera_, motion_) : CameraTurn{};
       checked_us_ = time_us;
       checked_agreement_ = agreement;
-      if (auto turn = repose_.check(time_us, moved_ && turn_.found, turn_.turn, turn_.residual_px)) {
+      if (auto turn =
+              repose_.check(time_us, moved_ && turn_.found, turn_.turn, turn_.residual_px)) {
         repose_turn_ = *turn;
       }
     }

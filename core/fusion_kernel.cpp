@@ -336,8 +336,9 @@ void FusionKernel::blockCells(const CameraTable& camera, const std::uint8_t* cha
       lists, changed, blocking);
 }
 
-void FusionKernel::fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out,
-                        std::span<const std::uint32_t> generations) {
+std::uint64_t FusionKernel::fuse(std::span<const std::uint8_t* const> changed,
+                                 std::span<CellState> out,
+                                 std::span<const std::uint32_t> generations) {
   if (changed.size() != cameras_.size() || out.size() != cell_count_ ||
       (!generations.empty() && generations.size() != cameras_.size())) {
     throw std::invalid_argument("fuse: one mask per camera and one state per cell");
@@ -346,11 +347,13 @@ void FusionKernel::fuse(std::span<const std::uint8_t* const> changed, std::span<
   // camera then frees the cells it sees and its changed pixels do not block.
   std::fill(free_.begin(), free_.end(), 0);
   std::fill(seen_.begin(), seen_.end(), 0);
+  std::uint64_t fused = 0;
   for (std::size_t k = 0; k < cameras_.size(); ++k) {
     if (changed[k] == nullptr) continue;
     fusing_[k] = cameras_[k].table.load(std::memory_order_acquire);
     const CameraTable& camera = *fusing_[k];
     if (!generations.empty() && generations[k] != camera.generation) continue;
+    fused |= std::uint64_t{1} << k;
     // A replaced table may have more tiles than any before (an allocation once, after a re-pose).
     if (changed_tiles_.size() < camera.tiles.size()) changed_tiles_.resize(camera.tiles.size());
     blockCells(camera, changed[k]);
@@ -363,6 +366,7 @@ void FusionKernel::fuse(std::span<const std::uint8_t* const> changed, std::span<
   (path_ == KernelPath::kSimd
        ? fusion_steps::writeCellStates
        : fusion_steps::writeCellStatesScalar)(seen_.data(), free_.data(), cell_count_, states);
+  return fused;
 }
 
 std::string fusionSimdTarget() { return fusion_steps::simdTargetName(); }

@@ -70,9 +70,9 @@ class FusionKernel {
   // in this frame set (down or late): then its cells count only if another camera sees them.
   // `out` has the map's cell count. With `generations` (one per camera: what markChangedPixels
   // returned for each mask), a mask marked under another table than the one fuse() finds is left
-  // out like a missing one.
-  void fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out,
-            std::span<const std::uint32_t> generations = {});
+  // out like a missing one. Returns the cameras whose masks counted, bit k for camera k.
+  std::uint64_t fuse(std::span<const std::uint8_t* const> changed, std::span<CellState> out,
+                     std::span<const std::uint32_t> generations = {});
 
   std::size_t cameraCount() const { return cameras_.size(); }
 

@@ -339,7 +339,8 @@ void Pipeline::noteView(std::size_t k) {
   double residual_px = 0;
   const ViewMotion& motion = camera.changed_pixels.motion();
   if (view == ViewState::kMoved) {
-    const CameraTurn turn = cameraTurn(*prepared_.rig.cameras()[k].camera, motion);
+    // The turn against the pose the camera has now (re-posed or not), as the check found it.
+    const CameraTurn& turn = camera.changed_pixels.turn();
     turn_deg = turn.degrees();
     residual_px = turn.found ? turn.residual_px : motion.residual_px;
   }
@@ -393,19 +394,19 @@ void Pipeline::repose(std::size_t k, const Image& background) {
     return;
   }
   kernel_.replaceCamera(k, std::move(result->table));
-  ReposedCamera* reposed = &result->camera;
-  camera.changed_pixels.reposed(reposed->camera);
-  camera.reposed_images.push_back(std::make_unique<Image>(std::move(reposed->background)));
+  ReposedCamera& reposed = result->camera;
+  camera.changed_pixels.reposed(reposed.camera);
+  camera.reposed_images.push_back(std::make_unique<Image>(std::move(reposed.background)));
   camera.reposed_background = camera.reposed_images.back().get();
-  camera.reposed_images.push_back(std::make_unique<Image>(std::move(reposed->floor_mask)));
+  camera.reposed_images.push_back(std::make_unique<Image>(std::move(reposed.floor_mask)));
   camera.floor_mask = camera.reposed_images.back().get();
-  const double degrees = reposed->turn.norm() * 180 / std::numbers::pi;
+  const double degrees = reposed.turn.norm() * 180 / std::numbers::pi;
   camera.reposed_turn_deg.store(degrees, std::memory_order_relaxed);
   camera.reposed_utime.store(hostTimeMicroseconds(), std::memory_order_relaxed);
   camera.reposes.fetch_add(1, std::memory_order_relaxed);
   camera.control.view_moved.store(false, std::memory_order_relaxed);
-  const Eigen::Vector3d rvec = rodriguesFromRotation(reposed->camera.model().pose().rotation);
-  const std::string saved = saveReposedCalibration(rig_camera.name, reposed->camera);
+  const Eigen::Vector3d rvec = rodriguesFromRotation(reposed.camera.model().pose().rotation);
+  const std::string saved = saveReposedCalibration(rig_camera.name, reposed.camera);
   logLine(LogLevel::kNotice,
           "camera %s: re-posed, turned %.2f degrees: its pose is corrected in memory and it is "
           "back in the maps. Its calibration file still has the old pose: the new rotation is "
@@ -502,10 +503,8 @@ void Pipeline::fuse(std::int64_t now) {
     const CapturedFrame& frame = camera.frames.readBuffer();
     // The newest frame of each live camera; one that is late for this set still counts with its
     // previous frame as long as that is recent (a down camera's cells turn unseen instead).
-    // A mask marked under a table a re-pose has replaced since does not count either (the kernel
-    // checks it again against the table it fuses with).
-    const bool used = frame_set_.uses(k, states_[k], now, camera.health.downAfterNs()) &&
-                      frame.explained && frame.generation == kernel_.generation(k);
+    const bool used =
+        frame_set_.uses(k, states_[k], now, camera.health.downAfterNs()) && frame.explained;
     changed_[k] = used ? frame.changed.data() : nullptr;
     generations_[k] = frame.generation;
     out.cameras[k] =
@@ -517,8 +516,14 @@ void Pipeline::fuse(std::int64_t now) {
     }
   }
   const std::int64_t began = monotonicNanoseconds();
-  kernel_.fuse(changed_, out.map.cells, generations_);
+  const std::uint64_t fused = kernel_.fuse(changed_, out.map.cells, generations_);
   fusion_times_.record(monotonicNanoseconds() - began);
+  // A mask marked under a table a re-pose has replaced since did not count (once, at the switch).
+  for (std::size_t k = 0; k < cameras_.size(); ++k) {
+    if (changed_[k] != nullptr && ((fused >> k) & 1u) == 0) {
+      out.cameras[k] = CameraContribution{states_[k], false, -1, 0};
+    }
+  }
   out.utime = newest != 0 ? newest : hostTimeMicroseconds();
   out.newest_arrival_ns = newest_arrival;
   if (maps_.publish()) maps_skipped_.fetch_add(1, std::memory_order_relaxed);

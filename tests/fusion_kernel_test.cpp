@@ -319,12 +319,12 @@ TEST(FusionKernel, AReplacedCameraTableFusesAsIfBuiltSoAndLeavesOutMasksOfTheOld
       }
       EXPECT_EQ(generations, (std::vector<std::uint32_t>{0, 1, 0, 0}));
       std::vector<CellState> fast(map.cellCount()), expected(map.cellCount());
-      kernel.fuse(changed, fast, generations);
+      EXPECT_EQ(kernel.fuse(changed, fast, generations), 0b1111u);
       FusionKernel(turned_tables, path).fuse(changed, expected);
       ASSERT_EQ(fast, expected) << "column " << height;
-      // Camera 1's mask marked under its old table: left out, as if it were down.
+      // Camera 1's mask marked under its old table: left out, as if it were down, and said so.
       generations[1] = 0;
-      kernel.fuse(changed, fast, generations);
+      EXPECT_EQ(kernel.fuse(changed, fast, generations), 0b1101u);
       changed[1] = nullptr;
       FusionKernel(turned_tables, path).fuse(changed, expected);
       ASSERT_EQ(fast, expected) << "column " << height;

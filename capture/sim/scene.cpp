@@ -112,13 +112,8 @@ double LightPatch::at(const Eigen::Vector2d& p) const {
 }
 
 TsaiParameters turnedOnItsMount(const TsaiParameters& calibration, const Eigen::Vector3d& turn) {
-  // Xc' = Q Xc = Q (R Xw + T): the same centre, the view turned by Q.
-  const Eigen::Matrix3d q =
-      turn.norm() > 0 ? Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix()
-                      : Eigen::Matrix3d::Identity();
   TsaiParameters turned = calibration;
-  turned.setPose(Pose{q * rotationFromTsaiAngles(calibration.rx, calibration.ry, calibration.rz),
-                      q * Eigen::Vector3d(calibration.tx, calibration.ty, calibration.tz)});
+  turned.setPose(occmap::turnedOnItsMount(TsaiCamera(calibration).pose(), turn));
   return turned;
 }
 
