@@ -52,7 +52,7 @@ std::optional<Ray> CameraModel::imageToRay(const Eigen::Vector2d& pixel) const {
   const std::optional<Eigen::Vector3d> camera = pixelToCamera(pixel);
   if (!camera || !camera->allFinite()) return std::nullopt;
   // Paper eq. 13, P_w = R^-1 (P_c - T), applied to the ray's origin (0) and direction.
-  return Ray{pose_.centre(), pose_.rotation.transpose() * *camera};
+  return Ray{centre_, to_world_ * *camera};
 }
 
 std::optional<PlanePoint> CameraModel::imageToPlane(const Eigen::Vector2d& pixel, double z) const {

@@ -57,7 +57,9 @@ class ChangedPixels {
       repose_.reset();
       repose_turn_.reset();
     }
-    const ImageView corrected = model_->correct(live);
+    // Only the pixels the difference reads are corrected (the kernel's needed strips).
+    const auto needed = kernel.neededStrips(k);
+    const ImageView corrected = model_->correct(live, needed->data());
     generation_ = kernel.markChangedPixels(k, corrected, model_->background(), threshold, changed);
     model_->explainLocally(corrected, threshold, changed);
     model_->follow(live, changed);

@@ -99,6 +99,37 @@ double shareUnchanged(const Mask& mask, const Image& where) {
   return inside == 0 ? 1.0 : static_cast<double>(unchanged) / static_cast<double>(inside);
 }
 
+// The frame in the background's light is worked in 16-bit lanes (core/lighting_steps.cpp): every
+// grey level under gains from four to a quarter, the ends and the steps around 1 / gain = 1, 2, 3
+// in 16.16 among them, on every SIMD target this CPU runs, gives the scalar's bytes.
+TEST(LightingSteps, TheFrameInTheBackgroundsLightIsTheScalarsForEveryGreyLevelAndGain) {
+  std::vector<std::uint8_t> live(256 + 37);  // every grey level, then a tail of a vector
+  for (std::size_t u = 0; u < live.size(); ++u) live[u] = static_cast<std::uint8_t>(u * 7 % 256);
+  for (std::size_t u = 0; u < 256; ++u) live[u] = static_cast<std::uint8_t>(u);
+  std::vector<std::int32_t> inverses;
+  for (std::int32_t inverse = 16384; inverse <= 262144; inverse += 97) inverses.push_back(inverse);
+  for (const std::int32_t step : {65536, 131072, 196608}) {
+    for (std::int32_t near = step - 2; near <= step + 2; ++near) inverses.push_back(near);
+  }
+  inverses.push_back(262144);
+  std::size_t targets = 0;
+  for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+    SCOPED_TRACE(hwy::TargetName(target));
+    hwy::SetSupportedTargetsForTest(target);
+    ++targets;
+    std::vector<std::uint8_t> out(live.size()), expected(live.size());
+    for (const std::int32_t inverse : inverses) {
+      lighting_steps::inBackgroundsLight(live.data(), static_cast<int>(live.size()), inverse,
+                                         out.data());
+      lighting_steps::inBackgroundsLightScalar(live.data(), static_cast<int>(live.size()), inverse,
+                                               expected.data());
+      ASSERT_EQ(out, expected) << "1/gain " << inverse << " in 16.16";
+    }
+  }
+  hwy::SetSupportedTargetsForTest(0);
+  EXPECT_GE(targets, 1u);
+}
+
 // The floor of the empty room under a gain, against a background taken at gain 1: the share of its
 // pixels still unchanged, without the model (today) and with it. The table, per pixel.
 // The model's per-pixel passes (core/lighting_steps.h) give the scalar yardstick's bytes on every
