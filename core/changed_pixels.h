@@ -57,9 +57,7 @@ class ChangedPixels {
       repose_.reset();
       repose_turn_.reset();
     }
-    // Only the pixels the difference reads are corrected (the kernel's needed strips).
-    const auto needed = kernel.neededStrips(k);
-    const ImageView corrected = model_->correct(live, needed->data());
+    const ImageView corrected = model_->correct(live);
     generation_ = kernel.markChangedPixels(k, corrected, model_->background(), threshold, changed);
     model_->explainLocally(corrected, threshold, changed);
     model_->follow(live, changed);

@@ -83,12 +83,6 @@ std::uint32_t FusionKernel::markChangedPixels(std::size_t k, ImageView live, Ima
   return camera.generation;
 }
 
-std::shared_ptr<const std::vector<std::uint8_t>> FusionKernel::neededStrips(std::size_t k) const {
-  std::shared_ptr<const CameraTable> table = cameras_.at(k).table.load(std::memory_order_acquire);
-  const std::vector<std::uint8_t>* strips = &table->needed_strips;
-  return {std::move(table), strips};  // shares the table's ownership: no allocation
-}
-
 FusionKernel::Replacement FusionKernel::prepareReplacement(const CarveTable& table) {
   Replacement out;
   out.table_ = std::make_shared<CameraTable>(turnAround(table));

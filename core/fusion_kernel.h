@@ -65,11 +65,6 @@ class FusionKernel {
   // Returns the generation of the camera's table it used (see replaceCamera).
   std::uint32_t markChangedPixels(std::size_t camera, ImageView live, ImageView background,
                                   int threshold, std::uint8_t* changed) const;
-  // The strips markChangedPixels reads for camera k (one flag per 64-pixel strip of each row of
-  // tiles, ceil(width / 64) to a row), held while the result lives: a step before the difference
-  // that works on those pixels alone (the light's correction, core/lighting_model.h). The same
-  // threading rule as markChangedPixels.
-  std::shared_ptr<const std::vector<std::uint8_t>> neededStrips(std::size_t camera) const;
 
   // changed[k]: camera k's changed-pixel mask (markChangedPixels), or nullptr when camera k is not
   // in this frame set (down or late): then its cells count only if another camera sees them.

@@ -52,33 +52,6 @@ const std::array<std::uint16_t, 65536>& binOfPair() {
   return table;
 }
 
-// Calls run(v, u0, u1) for the pixels [u0, u1) of each row v in the needed strips (64 pixels wide,
-// per row of 8-pixel tiles; runs of neighbouring strips as one), or for whole rows without them.
-template <typename Run>
-void forEachNeededRun(int width, int height, const std::uint8_t* needed_strips, Run run) {
-  if (needed_strips == nullptr) {
-    for (int v = 0; v < height; ++v) run(v, 0, width);
-    return;
-  }
-  const int strips_across = (width + 63) / 64;
-  for (int tile_row = 0; tile_row * 8 < height; ++tile_row) {
-    const std::uint8_t* needed =
-        needed_strips + static_cast<std::ptrdiff_t>(tile_row) * strips_across;
-    for (int first = 0; first < strips_across;) {
-      if (needed[first] == 0) {
-        ++first;
-        continue;
-      }
-      int last = first;
-      while (last < strips_across && needed[last] != 0) ++last;
-      const int u1 = std::min(width, last * 64);
-      for (int v = tile_row * 8; v < std::min(height, tile_row * 8 + 8); ++v)
-        run(v, first * 64, u1);
-      first = last;
-    }
-  }
-}
-
 }  // namespace
 
 LightingModel::LightingModel(ImageView background, const LightingSettings& settings)
@@ -203,7 +176,7 @@ void LightingModel::updateInverse() {
   inverse_gain_q16_ = static_cast<std::int32_t>(std::lround(65536.0 / gain_));
 }
 
-ImageView LightingModel::correct(ImageView live, const std::uint8_t* needed_strips) {
+ImageView LightingModel::correct(ImageView live) {
   if (live.width != width_ || live.height != height_) {
     throw std::invalid_argument("LightingModel: the frame's size differs from the background's");
   }
@@ -218,17 +191,17 @@ ImageView LightingModel::correct(ImageView live, const std::uint8_t* needed_stri
     capped_in_use_ = false;
     return live;
   }
+  for (int v = 0; v < height_; ++v) {
+    lighting_steps::inBackgroundsLight(live.row(v), width_, inverse, corrected_.row(v));
+  }
   // A pixel at 255 reads `cap` in the background's light: a background above that would have been
   // clipped too, so it is compared as that.
   const auto cap = static_cast<std::uint8_t>(std::min(255, (255 * inverse + 32768) >> 16));
   capped_in_use_ = cap < 255;
-  forEachNeededRun(width_, height_, needed_strips, [&](int v, int u0, int u1) {
-    lighting_steps::inBackgroundsLight(live.row(v) + u0, u1 - u0, inverse, corrected_.row(v) + u0);
-    if (capped_in_use_) {
-      lighting_steps::atMost(reference_.row(v) + u0, static_cast<std::size_t>(u1 - u0), cap,
-                             capped_.row(v) + u0);
-    }
-  });
+  if (capped_in_use_) {
+    const std::size_t pixels = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
+    lighting_steps::atMost(reference_.data(), pixels, cap, capped_.data());
+  }
   return corrected_.view();
 }
 

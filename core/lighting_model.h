@@ -62,11 +62,10 @@ class LightingModel {
   // Before the difference, once per frame: estimates the light's gain from `live` and returns the
   // frame in the background's light (live / gain, rounded, at most 255). Compare it with
   // background() under the usual threshold. The view is valid until the next call.
-  // With `needed_strips` (FusionKernel::neededStrips' layout), only the pixels of those strips are
-  // put in the background's light (and the background capped there): all that the difference
-  // reads, and all that the local light reads, since changed tiles lie in them. Elsewhere both
-  // views hold what they held (a third to a half of an image that decides no cell).
-  ImageView correct(ImageView live, const std::uint8_t* needed_strips = nullptr);
+  // The whole frame, in one pass down its rows: measured faster for a frame that is not in the
+  // cache than correcting only the strips the difference reads, or correcting on the way through
+  // the difference (docs/lighting.md, "Measured").
+  ImageView correct(ImageView live);
   // The background in its own light for the frame correct() last saw. Where that frame's light
   // saturates the sensor (gain > 1) it is capped at what a saturated pixel reads, since a pixel at
   // 255 may hide any brighter background.

@@ -10,7 +10,6 @@
 
 #include "capture/sim/renderer.h"
 #include "core/fusion_steps.h"
-#include "core/lighting_model.h"
 #include "core/reference_fusion.h"
 #include "random_cameras.h"
 
@@ -268,58 +267,6 @@ TEST(FusionKernel, EqualsTheReferenceOnTheSimulatedRoomWithCamerasDown) {
       });
     }
   }
-}
-
-// The light's model corrects only the pixels the difference reads (FusionKernel::neededStrips):
-// frame by frame, under light a fifth darker and a quarter brighter (where the background is
-// capped), with the local light and the drift on, each camera's changed tiles are those of a
-// model that corrects every pixel.
-TEST(FusionKernel, TheLightCorrectedInTheNeededStripsAloneMarksTheSameTiles) {
-  const auto scene = sim::makeScene("room");
-  const MapGeometry map{-0.62, -1.87, 0.02, 512, 512};
-  std::size_t strips = 0, needed = 0, changed = 0;
-  for (std::size_t k = 0; k < scene->cameras().size(); ++k) {
-    const sim::Renderer renderer(
-        *scene,
-        Camera(std::make_shared<TsaiCamera>(scene->cameras()[k].calibration),
-               LengthUnit::kMillimetre, 640, 480),
-        static_cast<int>(k));
-    const std::vector<CarveTable> tables = {
-        buildCarveTable(renderer.camera(), map, 0.3, renderer.floorMask().view())};
-    const FusionKernel kernel(tables);
-    const auto needed_strips = kernel.neededStrips(0);
-    strips += needed_strips->size();
-    for (const std::uint8_t flag : *needed_strips) needed += flag != 0 ? 1 : 0;
-    const ImageView background = renderer.background().view();
-    LightingModel everywhere(background, LightingSettings{});
-    LightingModel where_needed(background, LightingSettings{});
-    const std::size_t mask_bytes = changedMaskBytes(640, 480);
-    for (int frame = 0; frame < 12; ++frame) {
-      Image live;
-      renderer.render(scene->objectsAt(0.9 * frame), static_cast<std::uint64_t>(frame), live);
-      const double gain = frame % 2 == 0 ? 0.8 : 1.25;
-      for (int v = 0; v < live.height(); ++v) {
-        for (int u = 0; u < live.width(); ++u) {
-          live.at(u, v) =
-              static_cast<std::uint8_t>(std::min(255.0, std::round(live.at(u, v) * gain)));
-        }
-      }
-      std::vector<std::uint8_t> expected(mask_bytes), got(mask_bytes);
-      const ImageView all = everywhere.correct(live.view());
-      kernel.markChangedPixels(0, all, everywhere.background(), 20, expected.data());
-      everywhere.explainLocally(all, 20, expected.data());
-      everywhere.follow(live.view(), expected.data());
-      const ImageView some = where_needed.correct(live.view(), needed_strips->data());
-      kernel.markChangedPixels(0, some, where_needed.background(), 20, got.data());
-      where_needed.explainLocally(some, 20, got.data());
-      where_needed.follow(live.view(), got.data());
-      ASSERT_EQ(got, expected) << "camera " << k << " frame " << frame;
-      ASSERT_EQ(where_needed.gain(), everywhere.gain());
-      for (const std::uint8_t byte : got) changed += byte != 0 ? 1 : 0;
-    }
-  }
-  EXPECT_LT(needed, strips) << "every strip needed: the restriction was not exercised";
-  EXPECT_GT(changed, 0u) << "no changed pixel: nothing was compared";
 }
 
 // A camera's table replaced while the kernel runs (a camera re-posed after a knock): the kernel
