@@ -86,8 +86,9 @@ class CameraModel {
   Pose pose_;
   // The pose turned round once, not for every pixel's ray: a carve table asks for some hundred
   // thousand rays, and instrumented (a sanitizer's build) each -R^T t and R^T x was a call of its
-  // own, an eighth of pipeline_test's time under ASan. The same products, so the same rays to the bit (R^T held
-  // row-major is R^T as Eigen reads it through transpose(), and multiplied in the same order).
+  // own, an eighth of pipeline_test's time under ASan. The same products, so the same rays to the
+  // bit (R^T held row-major is R^T as Eigen reads it through transpose(), and multiplied in the
+  // same order).
   Eigen::Vector3d centre_;
   Eigen::Matrix<double, 3, 3, Eigen::RowMajor> to_world_;
   int width_;
