@@ -64,7 +64,7 @@ std::optional<int> Camera::pixelIndexAt(const Eigen::Vector2d& stream) const {
   return static_cast<int>(v) * stream_width_ + static_cast<int>(u);
 }
 
-Eigen::Vector3d Camera::centreMetres() const { return model_->pose().centre() * metres_per_unit_; }
+Eigen::Vector3d Camera::centreMetres() const { return model_->centre() * metres_per_unit_; }
 
 Camera Camera::turned(const Eigen::Vector3d& turn) const {
   Camera out = *this;

@@ -65,6 +65,8 @@ class CameraModel {
   int width() const { return width_; }
   int height() const { return height_; }
   const Pose& pose() const { return pose_; }
+  // The camera's centre in the calibration frame (pose().centre(), computed once).
+  const Eigen::Vector3d& centre() const { return centre_; }
 
   std::optional<ImagePoint> worldToImage(const Eigen::Vector3d& world) const;
   std::optional<Ray> imageToRay(const Eigen::Vector2d& pixel) const;

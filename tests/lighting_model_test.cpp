@@ -104,8 +104,9 @@ double shareUnchanged(const Mask& mask, const Image& where) {
 // in 16.16 among them, on every SIMD target this CPU runs, gives the scalar's bytes.
 TEST(LightingSteps, TheFrameInTheBackgroundsLightIsTheScalarsForEveryGreyLevelAndGain) {
   std::vector<std::uint8_t> live(256 + 37);  // every grey level, then a tail of a vector
-  for (std::size_t u = 0; u < live.size(); ++u) live[u] = static_cast<std::uint8_t>(u * 7 % 256);
-  for (std::size_t u = 0; u < 256; ++u) live[u] = static_cast<std::uint8_t>(u);
+  for (std::size_t u = 0; u < live.size(); ++u) {
+    live[u] = static_cast<std::uint8_t>(u < 256 ? u : u * 7 % 256);
+  }
   std::vector<std::int32_t> inverses;
   for (std::int32_t inverse = 16384; inverse <= 262144; inverse += 97) inverses.push_back(inverse);
   for (const std::int32_t step : {65536, 131072, 196608}) {
