@@ -22,6 +22,9 @@ constexpr int kBrightest = 235;
 constexpr int kSaturated = 250;
 // Fewer usable samples than this (lights out, a covered lens): nothing is explained.
 constexpr std::size_t kFewestSamples = 64;
+// The median of the log ratios is found from every kMedianStride-th usable sample (some 4 800 of a
+// 640 x 480 frame's 19 200); the gain is then the least-squares fit over all that agree with it.
+constexpr std::size_t kMedianStride = 4;
 
 // The log-ratio bin of every pair of grey levels, at [background << 8 | live]: ln(l + 0.5) -
 // ln(b + 0.5) in bins of kBins over [-ln 4, ln 4], or kUnusable for a pair that says nothing of
@@ -86,7 +89,17 @@ void LightingModel::reset(ImageView background) {
   const std::size_t samples = static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep) *
                               static_cast<std::size_t>((height_ + kSampleStep - 1) / kSampleStep);
   samples_.assign(samples, 0);
-  sample_tiles_.assign(samples, 0);
+  // The tile of every sample, which keeps its place from frame to frame (LightingSteps: every
+  // kSampleStep-th pixel of every kSampleStep-th row).
+  static_assert(kSampleStep == 4, "lighting_steps::samplePairs takes every fourth pixel");
+  sample_tiles_.clear();
+  const std::size_t across = tilesAcross(width_);
+  for (int v = 0; v < height_; v += kSampleStep) {
+    for (int u = 0; u < width_; u += kSampleStep) {
+      sample_tiles_.push_back(static_cast<std::uint32_t>(static_cast<std::size_t>(v / 8) * across +
+                                                         static_cast<std::size_t>(u / 8)));
+    }
+  }
   disagreeing_.assign(samples, 0);
   usable_ = 0;
   agreeing_ = 0;
@@ -97,44 +110,38 @@ void LightingModel::reset(ImageView background) {
   locally_explained_ = 0;
   explained_ = true;
   capped_in_use_ = false;
+  capped_cap_ = 255;
   frames_ = 0;
   updateInverse();
 }
 
 void LightingModel::estimateGain(ImageView live) {
   const std::array<std::uint16_t, 65536>& bin_of = binOfPair();
-  std::fill(histogram_.begin(), histogram_.end(), 0u);
-  std::size_t usable = 0;
-  // Locals, not members, in the loop: a store may alias any member, which the compiler would then
-  // reload for every sample.
-  const int width = width_;
-  const std::uint32_t across = static_cast<std::uint32_t>(tilesAcross(width_));
-  std::uint32_t* histogram = histogram_.data();
+  const std::size_t per_row = static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep);
   std::uint16_t* samples = samples_.data();
-  std::uint32_t* tiles = sample_tiles_.data();
-  for (int v = 0; v < height_; v += kSampleStep) {
-    const std::uint8_t* background = reference_.row(v);
-    const std::uint8_t* frame = live.row(v);
-    const std::uint32_t row_tiles = static_cast<std::uint32_t>(v / 8) * across;
+  for (int v = 0, row = 0; v < height_; v += kSampleStep, ++row) {
     // A live frame comes from the camera, not from the cache: the next sampled row is asked for
     // while this one is read (each sample would otherwise wait for memory).
     if (const int next = v + 2 * kSampleStep; next < height_) {
       const std::uint8_t* ahead = live.row(next);
-      for (int u = 0; u < width; u += 64) __builtin_prefetch(ahead + u);
+      for (int u = 0; u < width_; u += 64) __builtin_prefetch(ahead + u);
     }
-    for (int u = 0; u < width; u += kSampleStep) {
-      const auto pair = static_cast<std::uint16_t>(background[u] << 8 | frame[u]);
-      const std::uint16_t bin = bin_of[pair];
-      if (bin == kUnusable) continue;
-      ++histogram[bin];
-      tiles[usable] = row_tiles + static_cast<std::uint32_t>(u / 8);
-      samples[usable++] = pair;
-    }
+    lighting_steps::samplePairs(reference_.row(v), live.row(v), width_,
+                                samples + static_cast<std::size_t>(row) * per_row);
   }
-  usable_ = usable;
+  // The median's histogram takes every kMedianStride-th sample that is usable.
+  std::fill(histogram_.begin(), histogram_.end(), 0u);
+  std::size_t counted = 0;
+  for (std::size_t s = 0; s < samples_.size(); s += kMedianStride) {
+    const std::uint16_t bin = bin_of[samples[s]];
+    if (bin == kUnusable) continue;
+    ++histogram_[bin];
+    ++counted;
+  }
+  usable_ = 0;
   agreeing_ = 0;
   disagreeing_count_ = 0;
-  if (usable < kFewestSamples) {
+  if (counted == 0) {
     agreement_ = 0.0;
     explained_ = false;
     return;
@@ -143,7 +150,7 @@ void LightingModel::estimateGain(ImageView live) {
   std::size_t below = 0;
   int median_bin = 0;
   while (median_bin < kBins - 1 &&
-         2 * (below + histogram_[static_cast<std::size_t>(median_bin)]) < usable) {
+         2 * (below + histogram_[static_cast<std::size_t>(median_bin)]) < counted) {
     below += histogram_[static_cast<std::size_t>(median_bin)];
     ++median_bin;
   }
@@ -154,10 +161,17 @@ void LightingModel::estimateGain(ImageView live) {
   // grow with it.
   const double band = settings_.agreement_grey_levels * std::max(1.0, median);
   const lighting_steps::Agreement sums = lighting_steps::agreement(
-      samples_.data(), sample_tiles_.data(), usable, median, band, disagreeing_.data());
+      samples_.data(), sample_tiles_.data(), samples_.size(), static_cast<float>(median),
+      static_cast<float>(band), {kDarkest, kBrightest, kSaturated}, disagreeing_.data());
+  usable_ = sums.usable;
+  if (usable_ < kFewestSamples) {
+    agreement_ = 0.0;
+    explained_ = false;
+    return;
+  }
   disagreeing_count_ = sums.disagreeing;
   agreeing_ = sums.agreeing;
-  agreement_ = static_cast<double>(agreeing_) / static_cast<double>(usable);
+  agreement_ = static_cast<double>(agreeing_) / static_cast<double>(usable_);
   explained_ = agreement_ >= settings_.min_agreement && sums.sum_bb > 0.0;
   // The gain of what agrees, even when too little agrees for the frame to count yet: a light in
   // part of the view (explainLocally) may explain the rest.
@@ -198,9 +212,12 @@ ImageView LightingModel::correct(ImageView live) {
   // clipped too, so it is compared as that.
   const auto cap = static_cast<std::uint8_t>(std::min(255, (255 * inverse + 32768) >> 16));
   capped_in_use_ = cap < 255;
-  if (capped_in_use_) {
+  // The capped background is made again only when the cap moves (follow() keeps the rows it
+  // drifts capped): in a steady light, not at every frame.
+  if (capped_in_use_ && cap != capped_cap_) {
     const std::size_t pixels = static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_);
     lighting_steps::atMost(reference_.data(), pixels, cap, capped_.data());
+    capped_cap_ = cap;
   }
   return corrected_.view();
 }
@@ -232,8 +249,8 @@ void LightingModel::follow(ImageView live, const std::uint8_t* changed_tiles) {
   if (!explained_ || frames_ == 0) return;
   // Each pixel is visited every kBands frames, so each visit covers kBands frames of drift. In
   // 16.16 fixed point, at most 1/2: a difference (16 bits and a sign) times it stays within 32
-  // bits, and a drift faster than half of a lasting difference every visit (drift_frames < 8) is
-  // no drift anyway.
+  // bits, and a drift faster than half of a lasting difference every visit (drift_frames < 2
+  // kBands) is no drift anyway.
   const std::int32_t alpha_q16 = static_cast<std::int32_t>(std::clamp<long>(
       std::lround(65536.0 * kBands / std::max(settings_.drift_frames, kBands)), 1, 32768));
   // live / gain x 256, in 16.16: the live pixel in the background's light, in its fine steps.
@@ -262,6 +279,10 @@ void LightingModel::follow(ImageView live, const std::uint8_t* changed_tiles) {
       lighting_steps::driftRow(live.row(v), quiet, width_, inverse, alpha_q16, kSaturated,
                                reference_q8_.data() + static_cast<std::ptrdiff_t>(v) * width_,
                                reference_.row(v));
+      if (capped_cap_ < 255) {
+        lighting_steps::atMost(reference_.row(v), static_cast<std::size_t>(width_), capped_cap_,
+                               capped_.row(v));
+      }
     }
   }
 }

@@ -30,7 +30,7 @@ namespace occmap {
 struct LightingSettings {
   bool adapt = true;  // false: today's fixed background, exactly
   // The time constant of the drift, in frames: an unchanged background pixel covers about 63 % of
-  // a lasting difference in this many frames (256: about 8.5 s at 30 fps); below 8, as 8.
+  // a lasting difference in this many frames (256: about 8.5 s at 30 fps); below 32, as 32.
   int drift_frames = 256;
   // The share of the usable sampled pixels that must agree with one gain (within the agreement
   // band) for the change to count as light. Below it the camera is degraded. The trade: objects
@@ -94,8 +94,10 @@ class LightingModel {
 
   // Sampling: every kSampleStep-th pixel of every kSampleStep-th row.
   static constexpr int kSampleStep = 4;
-  // follow() updates one of kBands bands of tile rows per frame.
-  static constexpr int kBands = 4;
+  // follow() updates one of kBands bands of tile rows per frame: each row every 16 frames (half a
+  // second at 30 fps), often enough for a drift of hundreds of frames, and a sixteenth of the
+  // frame's pixels a frame (with 4 bands the drift was a quarter of the model's time, measured).
+  static constexpr int kBands = 16;
 
  private:
   void estimateGain(ImageView live);
@@ -110,6 +112,7 @@ class LightingModel {
   Image corrected_;                          // the last frame in the background's light
   Image capped_;                             // reference_ capped where the light saturates
   bool capped_in_use_ = false;
+  std::uint8_t capped_cap_ = 255;            // the cap capped_ holds; 255: none yet
   std::vector<std::uint32_t> histogram_;     // log-ratio bins of the gain estimate
   std::vector<std::uint16_t> samples_;       // this frame's usable samples: background << 8 | live
   std::vector<std::uint32_t> sample_tiles_;  // the tile of each

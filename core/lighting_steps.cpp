@@ -4,7 +4,6 @@
 #include "core/lighting_steps.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstddef>
 
@@ -95,51 +94,82 @@ void driftRowVector(const std::uint8_t* HWY_RESTRICT live, const std::uint8_t* H
                  saturated, fine + u, grey + u);
 }
 
-Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples,
-                          const std::uint32_t* HWY_RESTRICT tiles, std::size_t count, double gain,
-                          double band, std::uint32_t* HWY_RESTRICT disagreeing) {
-  const hn::ScalableTag<double> d;
-  const hn::Rebind<std::int32_t, decltype(d)> d32;
-  const hn::Rebind<std::uint16_t, decltype(d)> d16;
+void samplePairsVector(const std::uint8_t* HWY_RESTRICT background,
+                       const std::uint8_t* HWY_RESTRICT live, int width,
+                       std::uint16_t* HWY_RESTRICT pairs) {
+  const hn::ScalableTag<std::uint16_t> d;
+  const hn::Rebind<std::uint8_t, decltype(d)> bytes;
   const std::size_t n = hn::Lanes(d);
-  const auto g = hn::Set(d, gain);
-  const auto limit = hn::Set(d, band);
-  const auto low_byte = hn::Set(d32, 0xFF);
-  // Products and sums of grey levels are integers below 2^53: exact in any order.
-  auto sum_lb = hn::Zero(d);
-  auto sum_bb = hn::Zero(d);
-  auto sum_ll = hn::Zero(d);
-  Agreement out;
-  std::size_t s = 0;
-  for (; s + n <= count; s += n) {
-    const auto pair = hn::PromoteTo(d32, hn::LoadU(d16, samples + s));
-    const auto b = hn::PromoteTo(d, hn::ShiftRight<8>(pair));
-    const auto l = hn::PromoteTo(d, hn::And(pair, low_byte));
-    // The scalar test's very operations (no fused multiply-add): the same lanes agree.
-    const auto agree = hn::Lt(hn::Abs(hn::Sub(l, hn::Mul(g, b))), limit);
-    sum_lb = hn::Add(sum_lb, hn::IfThenElseZero(agree, hn::Mul(l, b)));
-    sum_bb = hn::Add(sum_bb, hn::IfThenElseZero(agree, hn::Mul(b, b)));
-    sum_ll = hn::Add(sum_ll, hn::IfThenElseZero(agree, hn::Mul(l, l)));
-    const std::size_t agreeing = hn::CountTrue(d, agree);
-    out.agreeing += agreeing;
-    if (agreeing == n) continue;
-    // The lanes that disagree, from the mask's bits, a byte (8 lanes) at a time.
-    std::uint8_t bits[(hn::MaxLanes(d) + 7) / 8] = {};
-    hn::StoreMaskBits(d, agree, bits);
-    for (std::size_t first = 0; first < n; first += 8) {
-      const std::size_t lanes = std::min<std::size_t>(8, n - first);
-      for (unsigned others = ~static_cast<unsigned>(bits[first / 8]) & ((1u << lanes) - 1);
-           others != 0; others &= others - 1) {
-        disagreeing[out.disagreeing++] =
-            tiles[s + first + static_cast<std::size_t>(std::countr_zero(others))];
-      }
-    }
+  const std::size_t pixels = static_cast<std::size_t>(width);
+  std::size_t i = 0;  // the sample at pixel 4 i
+  for (; 4 * (i + n) <= pixels; i += n) {
+    // Every fourth byte is the first of each group of four; the other three are not used.
+    hn::Vec<decltype(bytes)> b, l, other1, other2, other3;
+    hn::LoadInterleaved4(bytes, background + 4 * i, b, other1, other2, other3);
+    hn::LoadInterleaved4(bytes, live + 4 * i, l, other1, other2, other3);
+    hn::StoreU(hn::Or(hn::ShiftLeft<8>(hn::PromoteTo(d, b)), hn::PromoteTo(d, l)), d, pairs + i);
   }
-  const Agreement tail =
-      agreementScalar(samples + s, tiles + s, count - s, gain, band, disagreeing + out.disagreeing);
-  out.sum_lb = hn::GetLane(hn::SumOfLanes(d, sum_lb)) + tail.sum_lb;
-  out.sum_bb = hn::GetLane(hn::SumOfLanes(d, sum_bb)) + tail.sum_bb;
-  out.sum_ll = hn::GetLane(hn::SumOfLanes(d, sum_ll)) + tail.sum_ll;
+  samplePairsScalar(background + 4 * i, live + 4 * i, static_cast<int>(pixels - 4 * i), pairs + i);
+}
+
+Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples,
+                          const std::uint32_t* HWY_RESTRICT tiles, std::size_t count, float gain,
+                          float band, Usable usable, std::uint32_t* HWY_RESTRICT disagreeing) {
+  const hn::ScalableTag<std::int32_t> d;
+  const hn::Rebind<float, decltype(d)> df;
+  const hn::Rebind<std::uint16_t, decltype(d)> d16;
+  const hn::RebindToUnsigned<decltype(d)> du;
+  const std::size_t n = hn::Lanes(d);
+  const auto g = hn::Set(df, gain);
+  const auto limit = hn::Set(df, band);
+  const auto low_byte = hn::Set(d, 0xFF);
+  const auto below_darkest = hn::Set(d, usable.darkest - 1);
+  const auto above_brightest = hn::Set(d, usable.brightest + 1);
+  const auto black = hn::Set(d, 1);
+  const auto saturated = hn::Set(d, usable.saturated);
+  Agreement out;
+  std::uint64_t sum_lb = 0, sum_bb = 0, sum_ll = 0;
+  std::size_t s = 0;
+  while (count - s >= n) {
+    // Each lane sums at most 65025 a sample in 32 bits: 2^16 vectors a block fit.
+    const std::size_t block_end = s + std::min<std::size_t>((count - s) / n, 65536) * n;
+    auto lb = hn::Zero(du), bb = hn::Zero(du), ll = hn::Zero(du);
+    for (; s < block_end; s += n) {
+      const auto pair = hn::PromoteTo(d, hn::LoadU(d16, samples + s));
+      const auto b = hn::ShiftRight<8>(pair);
+      const auto l = hn::And(pair, low_byte);
+      const auto used = hn::And(hn::And(hn::Gt(b, below_darkest), hn::Lt(b, above_brightest)),
+                                hn::And(hn::Gt(l, black), hn::Lt(l, saturated)));
+      // The scalar test's very operations (no fused multiply-add): the same lanes agree.
+      const auto error = hn::Abs(hn::Sub(hn::ConvertTo(df, l), hn::Mul(g, hn::ConvertTo(df, b))));
+      const auto agree = hn::And(used, hn::RebindMask(d, hn::Lt(error, limit)));
+      lb = hn::Add(lb, hn::BitCast(du, hn::IfThenElseZero(agree, hn::Mul(l, b))));
+      bb = hn::Add(bb, hn::BitCast(du, hn::IfThenElseZero(agree, hn::Mul(b, b))));
+      ll = hn::Add(ll, hn::BitCast(du, hn::IfThenElseZero(agree, hn::Mul(l, l))));
+      out.usable += hn::CountTrue(d, used);
+      out.agreeing += hn::CountTrue(d, agree);
+      const auto others = hn::AndNot(agree, used);
+      if (hn::AllFalse(d, others)) continue;
+      // The tiles of the usable lanes that disagree, packed. CompressStore writes a whole vector:
+      // within `disagreeing`, since fewer than s samples have disagreed before this vector.
+      out.disagreeing += hn::CompressStore(hn::LoadU(du, tiles + s), hn::RebindMask(du, others), du,
+                                           disagreeing + out.disagreeing);
+    }
+    // The block's lanes, summed in 64 bits.
+    std::uint32_t lanes[hn::MaxLanes(du)];
+    hn::StoreU(lb, du, lanes);
+    for (std::size_t i = 0; i < n; ++i) sum_lb += lanes[i];
+    hn::StoreU(bb, du, lanes);
+    for (std::size_t i = 0; i < n; ++i) sum_bb += lanes[i];
+    hn::StoreU(ll, du, lanes);
+    for (std::size_t i = 0; i < n; ++i) sum_ll += lanes[i];
+  }
+  const Agreement tail = agreementScalar(samples + s, tiles + s, count - s, gain, band, usable,
+                                         disagreeing + out.disagreeing);
+  out.sum_lb = static_cast<double>(sum_lb) + tail.sum_lb;
+  out.sum_bb = static_cast<double>(sum_bb) + tail.sum_bb;
+  out.sum_ll = static_cast<double>(sum_ll) + tail.sum_ll;
+  out.usable += tail.usable;
   out.agreeing += tail.agreeing;
   out.disagreeing += tail.disagreeing;
   return out;
@@ -228,6 +258,7 @@ namespace occmap::lighting_steps {
 HWY_EXPORT(inBackgroundsLightVector);
 HWY_EXPORT(atMostVector);
 HWY_EXPORT(driftRowVector);
+HWY_EXPORT(samplePairsVector);
 HWY_EXPORT(agreementVector);
 HWY_EXPORT(tileSumsVector);
 HWY_EXPORT(correlationSumsVector);
@@ -248,26 +279,46 @@ void driftRow(const std::uint8_t* live, const std::uint8_t* quiet, int width,
   (live, quiet, width, inverse_q16, alpha_q16, saturated, fine, grey);
 }
 
+void samplePairs(const std::uint8_t* background, const std::uint8_t* live, int width,
+                 std::uint16_t* pairs) {
+  HWY_DYNAMIC_DISPATCH(samplePairsVector)(background, live, width, pairs);
+}
+
+void samplePairsScalar(const std::uint8_t* background, const std::uint8_t* live, int width,
+                       std::uint16_t* pairs) {
+  for (int u = 0; u < width; u += 4) {
+    pairs[u / 4] = static_cast<std::uint16_t>(background[u] << 8 | live[u]);
+  }
+}
+
 Agreement agreement(const std::uint16_t* samples, const std::uint32_t* tiles, std::size_t count,
-                    double gain, double band, std::uint32_t* disagreeing) {
-  return HWY_DYNAMIC_DISPATCH(agreementVector)(samples, tiles, count, gain, band, disagreeing);
+                    float gain, float band, Usable usable, std::uint32_t* disagreeing) {
+  return HWY_DYNAMIC_DISPATCH(agreementVector)(samples, tiles, count, gain, band, usable,
+                                               disagreeing);
 }
 
 Agreement agreementScalar(const std::uint16_t* samples, const std::uint32_t* tiles,
-                          std::size_t count, double gain, double band, std::uint32_t* disagreeing) {
+                          std::size_t count, float gain, float band, Usable usable,
+                          std::uint32_t* disagreeing) {
   Agreement out;
+  std::uint64_t sum_lb = 0, sum_bb = 0, sum_ll = 0;
   for (std::size_t s = 0; s < count; ++s) {
-    const double b = samples[s] >> 8;
-    const double l = samples[s] & 0xFF;
-    if (std::abs(l - gain * b) < band) {
+    const int b = samples[s] >> 8;
+    const int l = samples[s] & 0xFF;
+    if (b < usable.darkest || b > usable.brightest || l < 2 || l >= usable.saturated) continue;
+    ++out.usable;
+    if (std::abs(static_cast<float>(l) - gain * static_cast<float>(b)) < band) {
       ++out.agreeing;
-      out.sum_lb += l * b;
-      out.sum_bb += b * b;
-      out.sum_ll += l * l;
+      sum_lb += static_cast<std::uint64_t>(l * b);
+      sum_bb += static_cast<std::uint64_t>(b * b);
+      sum_ll += static_cast<std::uint64_t>(l * l);
     } else {
       disagreeing[out.disagreeing++] = tiles[s];
     }
   }
+  out.sum_lb = static_cast<double>(sum_lb);
+  out.sum_bb = static_cast<double>(sum_bb);
+  out.sum_ll = static_cast<double>(sum_ll);
   return out;
 }
 

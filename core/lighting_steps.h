@@ -1,8 +1,8 @@
 #pragma once
 // The light's model's per-pixel passes (core/lighting_model.h), each twice: SIMD through Google
 // Highway, dispatched at run time to the best target this CPU has, and plain scalar C++, the
-// yardstick the tests hold every SIMD target to. All are integer arithmetic, or sums of integers
-// in doubles (exact in any order) and one comparison done with the scalar's very operations, so
+// yardstick the tests hold every SIMD target to. All are integer arithmetic, sums of integers
+// (exact in any order) and one comparison done in float with the scalar's very operations, so
 // every target gives the same results. Internal to core/lighting_model.cpp, core/local_light.cpp
 // and core/view_motion.cpp, and exposed for their tests.
 
@@ -33,21 +33,39 @@ void driftRowScalar(const std::uint8_t* live, const std::uint8_t* quiet, int wid
                     std::int32_t inverse_q16, std::int32_t alpha_q16, int saturated,
                     std::uint16_t* fine, std::uint8_t* grey);
 
-// The gain's agreement (LightingModel::estimateGain): of `count` samples, each a background and a
-// live grey level as background << 8 | live, those with |live - gain x background| < band agree.
-// Their sums of live x background, background² and live² (integers, exact in a double), their
-// count; the tiles (from `tiles`, one per sample) of the others go to `disagreeing` in order.
+// The gain's samples along one row (LightingModel::estimateGain): every fourth pixel from u = 0,
+// (width + 3) / 4 of them, each as background << 8 | live.
+void samplePairs(const std::uint8_t* background, const std::uint8_t* live, int width,
+                 std::uint16_t* pairs);
+void samplePairsScalar(const std::uint8_t* background, const std::uint8_t* live, int width,
+                       std::uint16_t* pairs);
+
+// The gain's agreement (LightingModel::estimateGain). Of `count` samples, each a background and a
+// live grey level as background << 8 | live, those that say something of the gain are usable: a
+// background within [darkest, brightest] (darker ones are mostly noise, brighter ones may clip)
+// and a live grey level of at least 2 and below `saturated`. Of those, the ones with
+// |live - gain x background| < band (in float, with the scalar's very operations) agree: their
+// count and their sums of live x background, background² and live² (integers, exact in a double);
+// the tiles (from `tiles`, one per sample) of the usable others go to `disagreeing` in order
+// (room for `count` of them).
+struct Usable {
+  int darkest = 0;
+  int brightest = 255;
+  int saturated = 256;
+};
 struct Agreement {
   double sum_lb = 0.0;
   double sum_bb = 0.0;
   double sum_ll = 0.0;
+  std::size_t usable = 0;
   std::size_t agreeing = 0;
   std::size_t disagreeing = 0;
 };
 Agreement agreement(const std::uint16_t* samples, const std::uint32_t* tiles, std::size_t count,
-                    double gain, double band, std::uint32_t* disagreeing);
+                    float gain, float band, Usable usable, std::uint32_t* disagreeing);
 Agreement agreementScalar(const std::uint16_t* samples, const std::uint32_t* tiles,
-                          std::size_t count, double gain, double band, std::uint32_t* disagreeing);
+                          std::size_t count, float gain, float band, Usable usable,
+                          std::uint32_t* disagreeing);
 
 // One tile's sums for the local light's fit (core/local_light.h): over the `width` x `height`
 // pixels (at most 8 x 8) from `frame` and `background` (rows `frame_stride` and

@@ -143,8 +143,8 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
   std::uniform_int_distribution<int> fine_value(0, 65535);
   std::uniform_int_distribution<int> inverse(16384, 262144);  // gains from 4 to 1/4
   std::uniform_int_distribution<int> alpha(1, 32768);
-  std::size_t rows = 0, moved_pixels = 0, agreeing = 0, disagreeing_total = 0, tile_sums = 0,
-              correlations = 0;
+  std::size_t rows = 0, moved_pixels = 0, agreeing = 0, disagreeing_total = 0, unusable = 0,
+              tile_sums = 0, correlations = 0;
   for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
     SCOPED_TRACE(hwy::TargetName(target));
     hwy::SetSupportedTargetsForTest(target);
@@ -178,7 +178,19 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
       ASSERT_EQ(moved, expected_moved) << "width " << width << ", alpha " << alpha_q16;
       ASSERT_EQ(grey_out, expected_grey) << "width " << width;
       for (std::size_t u = 0; u < fine.size(); ++u) moved_pixels += moved[u] != fine[u];
-      // The gain's agreement over samples (background << 8 | live), some near the band's edges.
+      // The gain's samples along a row: every fourth pixel.
+      {
+        std::vector<std::uint16_t> pairs((live.size() + 3) / 4), expected_pairs(pairs.size());
+        lighting_steps::samplePairs(expected_out.data(), live.data(), width, pairs.data());
+        lighting_steps::samplePairsScalar(expected_out.data(), live.data(), width,
+                                          expected_pairs.data());
+        ASSERT_EQ(pairs, expected_pairs) << "width " << width;
+        for (std::size_t i = 0; i < pairs.size(); ++i) {
+          ASSERT_EQ(pairs[i], expected_out[4 * i] << 8 | live[4 * i]) << "width " << width;
+        }
+      }
+      // The gain's agreement over samples (background << 8 | live), some near the band's edges,
+      // some too dark, too bright or clipped to be used.
       std::vector<std::uint16_t> samples(live.size());
       std::vector<std::uint32_t> tiles(live.size());
       const double gain = 65536.0 / inverse_q16;
@@ -189,19 +201,25 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
         samples[u] = static_cast<std::uint16_t>(b << 8 | l);
         tiles[u] = static_cast<std::uint32_t>(u * 7);
       }
+      const lighting_steps::Usable usable{16, 235, 250};
       std::vector<std::uint32_t> disagreeing(live.size()), expected_disagreeing(live.size());
-      const lighting_steps::Agreement sums = lighting_steps::agreement(
-          samples.data(), tiles.data(), samples.size(), gain, 8.0, disagreeing.data());
+      const lighting_steps::Agreement sums =
+          lighting_steps::agreement(samples.data(), tiles.data(), samples.size(),
+                                    static_cast<float>(gain), 8.0f, usable, disagreeing.data());
       const lighting_steps::Agreement expected = lighting_steps::agreementScalar(
-          samples.data(), tiles.data(), samples.size(), gain, 8.0, expected_disagreeing.data());
+          samples.data(), tiles.data(), samples.size(), static_cast<float>(gain), 8.0f, usable,
+          expected_disagreeing.data());
+      ASSERT_EQ(sums.usable, expected.usable) << "width " << width;
       ASSERT_EQ(sums.agreeing, expected.agreeing) << "width " << width;
       ASSERT_EQ(sums.disagreeing, expected.disagreeing) << "width " << width;
+      ASSERT_EQ(sums.agreeing + sums.disagreeing, sums.usable) << "width " << width;
       ASSERT_EQ(sums.sum_lb, expected.sum_lb) << "width " << width;
       ASSERT_EQ(sums.sum_bb, expected.sum_bb) << "width " << width;
       ASSERT_EQ(sums.sum_ll, expected.sum_ll) << "width " << width;
       disagreeing.resize(sums.disagreeing);
       expected_disagreeing.resize(expected.disagreeing);
       ASSERT_EQ(disagreeing, expected_disagreeing) << "width " << width;
+      unusable += samples.size() - sums.usable;
       agreeing += sums.agreeing;
       disagreeing_total += sums.disagreeing;
       // A tile's sums for the local light, whole tiles and ones cut by the image's edge: the live
@@ -242,6 +260,7 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
   EXPECT_GT(moved_pixels, 1000u) << "the drift should move most quiet pixels";
   EXPECT_GT(agreeing, 1000u);
   EXPECT_GT(disagreeing_total, 1000u);
+  EXPECT_GT(unusable, 1000u) << "the samples should include some too dark, too bright or clipped";
   EXPECT_GT(tile_sums, 100u);
   EXPECT_GT(correlations, 60u);
 }
@@ -424,7 +443,7 @@ TEST(LightingModel, ASlowGlowIsFollowedByTheDrift) {
   EXPECT_GE(last, 0.99);
 }
 
-// The fastest drift a config may ask for (drift_frames 1, taken as 8), against a glow of 40 grey
+// The fastest drift a config may ask for (drift_frames 1, taken as 32), against a glow of 40 grey
 // levels that a gain explains only in part: the part left over (what the drift must learn) shrinks
 // to the sensor's noise within a few visits of each band, with no overflow on the way (UBSan checks
 // the fixed-point step in the ASan build). The floor stays unchanged throughout.
