@@ -443,7 +443,7 @@ TEST(LightingModel, ASlowGlowIsFollowedByTheDrift) {
   EXPECT_GE(last, 0.99);
 }
 
-// The fastest drift a config may ask for (drift_frames 1, taken as 32), against a glow of 40 grey
+// The fastest drift a config may ask for (drift_frames 1, taken as 16), against a glow of 40 grey
 // levels that a gain explains only in part: the part left over (what the drift must learn) shrinks
 // to the sensor's noise within a few visits of each band, with no overflow on the way (UBSan checks
 // the fixed-point step in the ASan build). The floor stays unchanged throughout.
