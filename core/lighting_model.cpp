@@ -22,6 +22,7 @@ constexpr int kBrightest = 235;
 constexpr int kSaturated = 250;
 // Fewer usable samples than this (lights out, a covered lens): nothing is explained.
 constexpr std::size_t kFewestSamples = 64;
+constexpr lighting_steps::Usable kUsable{kDarkest, kBrightest, kSaturated};
 // The median of the log ratios is found from every kMedianStride-th usable sample (some 4 800 of a
 // 640 x 480 frame's 19 200); the gain is then the least-squares fit over all that agree with it.
 constexpr std::size_t kMedianStride = 4;
@@ -89,18 +90,7 @@ void LightingModel::reset(ImageView background) {
   const std::size_t samples = static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep) *
                               static_cast<std::size_t>((height_ + kSampleStep - 1) / kSampleStep);
   samples_.assign(samples, 0);
-  // The tile of every sample, which keeps its place from frame to frame (LightingSteps: every
-  // kSampleStep-th pixel of every kSampleStep-th row).
   static_assert(kSampleStep == 4, "lighting_steps::samplePairs takes every fourth pixel");
-  sample_tiles_.clear();
-  const std::size_t across = tilesAcross(width_);
-  for (int v = 0; v < height_; v += kSampleStep) {
-    for (int u = 0; u < width_; u += kSampleStep) {
-      sample_tiles_.push_back(static_cast<std::uint32_t>(static_cast<std::size_t>(v / 8) * across +
-                                                         static_cast<std::size_t>(u / 8)));
-    }
-  }
-  disagreeing_.assign(samples, 0);
   usable_ = 0;
   agreeing_ = 0;
   if (settings_.local) local_.emplace(width_, height_);
@@ -140,7 +130,6 @@ void LightingModel::estimateGain(ImageView live) {
   }
   usable_ = 0;
   agreeing_ = 0;
-  disagreeing_count_ = 0;
   if (counted == 0) {
     agreement_ = 0.0;
     explained_ = false;
@@ -160,16 +149,16 @@ void LightingModel::estimateGain(ImageView live) {
   // The band widens with a brighter light: the background's rounding and a camera gain's noise
   // grow with it.
   const double band = settings_.agreement_grey_levels * std::max(1.0, median);
+  agreement_gain_ = static_cast<float>(median);
+  agreement_band_ = static_cast<float>(band);
   const lighting_steps::Agreement sums = lighting_steps::agreement(
-      samples_.data(), sample_tiles_.data(), samples_.size(), static_cast<float>(median),
-      static_cast<float>(band), {kDarkest, kBrightest, kSaturated}, disagreeing_.data());
+      samples_.data(), samples_.size(), agreement_gain_, agreement_band_, kUsable);
   usable_ = sums.usable;
   if (usable_ < kFewestSamples) {
     agreement_ = 0.0;
     explained_ = false;
     return;
   }
-  disagreeing_count_ = sums.disagreeing;
   agreeing_ = sums.agreeing;
   agreement_ = static_cast<double>(agreeing_) / static_cast<double>(usable_);
   explained_ = agreement_ >= settings_.min_agreement && sums.sum_bb > 0.0;
@@ -235,11 +224,25 @@ std::size_t LightingModel::explainLocally(ImageView corrected, int threshold,
   locally_explained_ = local_->explain(corrected, background(), captured_.view(), noise_, threshold,
                                        saturated, changed_tiles);
   // The samples that disagreed with the gain but lie where a local light explains the change count
-  // as agreeing: a lamp over a third of the view is light, not a bumped camera.
+  // as agreeing: a lamp over a third of the view is light, not a bumped camera. Each tile holds the
+  // four samples at its pixels (0, 0), (4, 0), (0, 4) and (4, 4).
+  const std::size_t per_row = static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep);
+  const std::size_t across = tilesAcross(width_);
   std::size_t explained_here = 0;
-  for (std::size_t s = 0; s < disagreeing_count_; ++s) {
-    explained_here += local_->explainedTile(disagreeing_[s]) ? 1 : 0;
-  }
+  local_->forEachExplainedTile([&](std::size_t tile) {
+    const int u0 = static_cast<int>(tile % across) * 8;
+    const int v0 = static_cast<int>(tile / across) * 8;
+    for (int v = v0; v < std::min(height_, v0 + 8); v += kSampleStep) {
+      for (int u = u0; u < std::min(width_, u0 + 8); u += kSampleStep) {
+        const std::uint16_t sample = samples_[static_cast<std::size_t>(v / kSampleStep) * per_row +
+                                              static_cast<std::size_t>(u / kSampleStep)];
+        explained_here += lighting_steps::usableSample(sample, kUsable) &&
+                                  !lighting_steps::agrees(sample, agreement_gain_, agreement_band_)
+                              ? 1
+                              : 0;
+      }
+    }
+  });
   agreement_ = static_cast<double>(agreeing_ + explained_here) / static_cast<double>(usable_);
   explained_ = agreement_ >= settings_.min_agreement;
   return locally_explained_;

@@ -114,12 +114,11 @@ class LightingModel {
   Image corrected_;                          // the last frame in the background's light
   Image capped_;                             // reference_ capped where the light saturates
   bool capped_in_use_ = false;
-  std::uint8_t capped_cap_ = 255;            // the cap capped_ holds; 255: none yet
-  std::vector<std::uint32_t> histogram_;     // log-ratio bins of the gain estimate
-  std::vector<std::uint16_t> samples_;       // this frame's usable samples: background << 8 | live
-  std::vector<std::uint32_t> sample_tiles_;  // the tile of each
-  std::vector<std::uint32_t> disagreeing_;   // the tiles of the samples that disagreed
-  std::size_t disagreeing_count_ = 0;
+  std::uint8_t capped_cap_ = 255;         // the cap capped_ holds; 255: none yet
+  std::vector<std::uint32_t> histogram_;  // log-ratio bins of the gain estimate
+  std::vector<std::uint16_t> samples_;    // this frame's, row by row: background << 8 | live
+  float agreement_gain_ = 1.0f;  // the median's gain and the band the samples were judged by
+  float agreement_band_ = 0.0f;
   std::size_t usable_ = 0;
   std::size_t agreeing_ = 0;
   std::vector<std::uint8_t> quiet_row_;    // follow(): 1 per pixel of a wholly unchanged tile

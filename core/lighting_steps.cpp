@@ -112,9 +112,8 @@ void samplePairsVector(const std::uint8_t* HWY_RESTRICT background,
   samplePairsScalar(background + 4 * i, live + 4 * i, static_cast<int>(pixels - 4 * i), pairs + i);
 }
 
-Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples,
-                          const std::uint32_t* HWY_RESTRICT tiles, std::size_t count, float gain,
-                          float band, Usable usable, std::uint32_t* HWY_RESTRICT disagreeing) {
+Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples, std::size_t count, float gain,
+                          float band, Usable usable) {
   const hn::ScalableTag<std::int32_t> d;
   const hn::Rebind<float, decltype(d)> df;
   const hn::Rebind<std::uint16_t, decltype(d)> d16;
@@ -134,44 +133,40 @@ Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples,
     // Each lane sums at most 65025 a sample in 32 bits: 2^16 vectors a block fit.
     const std::size_t block_end = s + std::min<std::size_t>((count - s) / n, 65536) * n;
     auto lb = hn::Zero(du), bb = hn::Zero(du), ll = hn::Zero(du);
+    auto used_lanes = hn::Zero(du), agreeing_lanes = hn::Zero(du);
     for (; s < block_end; s += n) {
       const auto pair = hn::PromoteTo(d, hn::LoadU(d16, samples + s));
       const auto b = hn::ShiftRight<8>(pair);
       const auto l = hn::And(pair, low_byte);
       const auto used = hn::And(hn::And(hn::Gt(b, below_darkest), hn::Lt(b, above_brightest)),
                                 hn::And(hn::Gt(l, black), hn::Lt(l, saturated)));
-      // The scalar test's very operations (no fused multiply-add): the same lanes agree.
       const auto error = hn::Abs(hn::Sub(hn::ConvertTo(df, l), hn::Mul(g, hn::ConvertTo(df, b))));
       const auto agree = hn::And(used, hn::RebindMask(d, hn::Lt(error, limit)));
       lb = hn::Add(lb, hn::BitCast(du, hn::IfThenElseZero(agree, hn::Mul(l, b))));
       bb = hn::Add(bb, hn::BitCast(du, hn::IfThenElseZero(agree, hn::Mul(b, b))));
       ll = hn::Add(ll, hn::BitCast(du, hn::IfThenElseZero(agree, hn::Mul(l, l))));
-      out.usable += hn::CountTrue(d, used);
-      out.agreeing += hn::CountTrue(d, agree);
-      const auto others = hn::AndNot(agree, used);
-      if (hn::AllFalse(d, others)) continue;
-      // The tiles of the usable lanes that disagree, packed. CompressStore writes a whole vector:
-      // within `disagreeing`, since fewer than s samples have disagreed before this vector.
-      out.disagreeing += hn::CompressStore(hn::LoadU(du, tiles + s), hn::RebindMask(du, others), du,
-                                           disagreeing + out.disagreeing);
+      // Counted in lanes too (a true mask lane is all ones: minus one), not per vector.
+      used_lanes = hn::Sub(used_lanes, hn::BitCast(du, hn::VecFromMask(d, used)));
+      agreeing_lanes = hn::Sub(agreeing_lanes, hn::BitCast(du, hn::VecFromMask(d, agree)));
     }
     // The block's lanes, summed in 64 bits.
     std::uint32_t lanes[hn::MaxLanes(du)];
-    hn::StoreU(lb, du, lanes);
-    for (std::size_t i = 0; i < n; ++i) sum_lb += lanes[i];
-    hn::StoreU(bb, du, lanes);
-    for (std::size_t i = 0; i < n; ++i) sum_bb += lanes[i];
-    hn::StoreU(ll, du, lanes);
-    for (std::size_t i = 0; i < n; ++i) sum_ll += lanes[i];
+    const auto add = [&](const auto& sums, auto& total) {
+      hn::StoreU(sums, du, lanes);
+      for (std::size_t i = 0; i < n; ++i) total += lanes[i];
+    };
+    add(lb, sum_lb);
+    add(bb, sum_bb);
+    add(ll, sum_ll);
+    add(used_lanes, out.usable);
+    add(agreeing_lanes, out.agreeing);
   }
-  const Agreement tail = agreementScalar(samples + s, tiles + s, count - s, gain, band, usable,
-                                         disagreeing + out.disagreeing);
+  const Agreement tail = agreementScalar(samples + s, count - s, gain, band, usable);
   out.sum_lb = static_cast<double>(sum_lb) + tail.sum_lb;
   out.sum_bb = static_cast<double>(sum_bb) + tail.sum_bb;
   out.sum_ll = static_cast<double>(sum_ll) + tail.sum_ll;
   out.usable += tail.usable;
   out.agreeing += tail.agreeing;
-  out.disagreeing += tail.disagreeing;
   return out;
 }
 
@@ -291,30 +286,25 @@ void samplePairsScalar(const std::uint8_t* background, const std::uint8_t* live,
   }
 }
 
-Agreement agreement(const std::uint16_t* samples, const std::uint32_t* tiles, std::size_t count,
-                    float gain, float band, Usable usable, std::uint32_t* disagreeing) {
-  return HWY_DYNAMIC_DISPATCH(agreementVector)(samples, tiles, count, gain, band, usable,
-                                               disagreeing);
+Agreement agreement(const std::uint16_t* samples, std::size_t count, float gain, float band,
+                    Usable usable) {
+  return HWY_DYNAMIC_DISPATCH(agreementVector)(samples, count, gain, band, usable);
 }
 
-Agreement agreementScalar(const std::uint16_t* samples, const std::uint32_t* tiles,
-                          std::size_t count, float gain, float band, Usable usable,
-                          std::uint32_t* disagreeing) {
+Agreement agreementScalar(const std::uint16_t* samples, std::size_t count, float gain, float band,
+                          Usable usable) {
   Agreement out;
   std::uint64_t sum_lb = 0, sum_bb = 0, sum_ll = 0;
   for (std::size_t s = 0; s < count; ++s) {
-    const int b = samples[s] >> 8;
-    const int l = samples[s] & 0xFF;
-    if (b < usable.darkest || b > usable.brightest || l < 2 || l >= usable.saturated) continue;
+    if (!usableSample(samples[s], usable)) continue;
     ++out.usable;
-    if (std::abs(static_cast<float>(l) - gain * static_cast<float>(b)) < band) {
-      ++out.agreeing;
-      sum_lb += static_cast<std::uint64_t>(l * b);
-      sum_bb += static_cast<std::uint64_t>(b * b);
-      sum_ll += static_cast<std::uint64_t>(l * l);
-    } else {
-      disagreeing[out.disagreeing++] = tiles[s];
-    }
+    if (!agrees(samples[s], gain, band)) continue;
+    const std::uint64_t b = samples[s] >> 8;
+    const std::uint64_t l = samples[s] & 0xFF;
+    ++out.agreeing;
+    sum_lb += l * b;
+    sum_bb += b * b;
+    sum_ll += l * l;
   }
   out.sum_lb = static_cast<double>(sum_lb);
   out.sum_bb = static_cast<double>(sum_bb);

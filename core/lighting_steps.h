@@ -6,6 +6,7 @@
 // every target gives the same results. Internal to core/lighting_model.cpp, core/local_light.cpp
 // and core/view_motion.cpp, and exposed for their tests.
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 
@@ -44,10 +45,9 @@ void samplePairsScalar(const std::uint8_t* background, const std::uint8_t* live,
 // live grey level as background << 8 | live, those that say something of the gain are usable: a
 // background within [darkest, brightest] (darker ones are mostly noise, brighter ones may clip)
 // and a live grey level of at least 2 and below `saturated`. Of those, the ones with
-// |live - gain x background| < band (in float, with the scalar's very operations) agree: their
-// count and their sums of live x background, background² and live² (integers, exact in a double);
-// the tiles (from `tiles`, one per sample) of the usable others go to `disagreeing` in order
-// (room for `count` of them).
+// |live - gain x background| < band agree (agrees() below, the very operations of every target):
+// their count and their sums of live x background, background² and live² (integers, exact in a
+// double).
 struct Usable {
   int darkest = 0;
   int brightest = 255;
@@ -59,13 +59,23 @@ struct Agreement {
   double sum_ll = 0.0;
   std::size_t usable = 0;
   std::size_t agreeing = 0;
-  std::size_t disagreeing = 0;
 };
-Agreement agreement(const std::uint16_t* samples, const std::uint32_t* tiles, std::size_t count,
-                    float gain, float band, Usable usable, std::uint32_t* disagreeing);
-Agreement agreementScalar(const std::uint16_t* samples, const std::uint32_t* tiles,
-                          std::size_t count, float gain, float band, Usable usable,
-                          std::uint32_t* disagreeing);
+Agreement agreement(const std::uint16_t* samples, std::size_t count, float gain, float band,
+                    Usable usable);
+Agreement agreementScalar(const std::uint16_t* samples, std::size_t count, float gain, float band,
+                          Usable usable);
+
+inline bool usableSample(std::uint16_t sample, Usable usable) {
+  const int b = sample >> 8;
+  const int l = sample & 0xFF;
+  return b >= usable.darkest && b <= usable.brightest && l >= 2 && l < usable.saturated;
+}
+// In float, without a fused multiply-add (core/CMakeLists.txt): as every SIMD target does it.
+inline bool agrees(std::uint16_t sample, float gain, float band) {
+  const auto b = static_cast<float>(sample >> 8);
+  const auto l = static_cast<float>(sample & 0xFF);
+  return std::abs(l - gain * b) < band;
+}
 
 // One tile's sums for the local light's fit (core/local_light.h): over the `width` x `height`
 // pixels (at most 8 x 8) from `frame` and `background` (rows `frame_stride` and

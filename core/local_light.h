@@ -50,6 +50,11 @@ class LocalLight {
                       int threshold, int saturated, std::uint8_t* changed_tiles);
   // Whether the last explain() cleared the tile.
   bool explainedTile(std::size_t tile) const { return state_[tile] == kExplained; }
+  // Calls each(tile) for every tile the last explain() cleared.
+  template <typename Each>
+  void forEachExplainedTile(Each&& each) const {
+    for (const Seed& seed : queue_) each(static_cast<std::size_t>(seed.tile));
+  }
 
   // A tile is light when the squared misfit of one gain over its n pixels is under kResidual
   // times what noise alone leaves (n sigma^2: the bound lies some 11 standard deviations of that
