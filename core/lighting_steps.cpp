@@ -60,35 +60,48 @@ void atMostVector(const std::uint8_t* HWY_RESTRICT in, std::size_t count, std::u
 void driftRowVector(const std::uint8_t* HWY_RESTRICT live, const std::uint8_t* HWY_RESTRICT quiet,
                     int width, std::int32_t inverse_q16, std::int32_t alpha_q16, int saturated,
                     std::uint16_t* HWY_RESTRICT fine, std::uint8_t* HWY_RESTRICT grey) {
-  const WideTag d;
-  const hn::Rebind<std::uint8_t, WideTag> bytes;
-  const hn::Rebind<std::uint16_t, WideTag> words;
+  // In 16-bit lanes, exactly as the scalar's 32-bit arithmetic:
+  // - The target l x inverse / 256, rounded, at most 65535, with 1 / gain = whole + part / 2^16:
+  //   l x whole x 256 (all ones once l x whole passes 255) plus (l x part + 128) >> 8, which is the
+  //   high half of (l << 8) x part plus bit 7 of the low half of l x part.
+  // - The step alpha x (target - now) / 2^16 toward minus infinity, from the difference's size d:
+  //   above, the high half of d x alpha (at least 1); below, minus that rounded up.
+  const hn::ScalableTag<std::uint16_t> d;
+  const hn::Rebind<std::uint8_t, decltype(d)> bytes;
+  const hn::RebindToSigned<decltype(d)> signed_words;
   const std::size_t n = hn::Lanes(d);
   const std::size_t pixels = static_cast<std::size_t>(width);
-  const auto inverse = hn::Set(d, inverse_q16);
-  const auto alpha = hn::Set(d, alpha_q16);
-  const auto clipped = hn::Set(d, saturated);
-  const auto half_step = hn::Set(d, 128);
+  const auto whole = hn::Set(d, static_cast<std::uint16_t>(inverse_q16 >> 16));
+  const auto part = hn::Set(d, static_cast<std::uint16_t>(inverse_q16 & 0xffff));
+  const auto alpha = hn::Set(d, static_cast<std::uint16_t>(alpha_q16));
+  const auto clipped = hn::Set(d, static_cast<std::uint16_t>(std::min(saturated, 65535)));
   const auto finest = hn::Set(d, 65535);
+  const auto half_step = hn::Set(d, 128);
   const auto brightest = hn::Set(d, 255);
   const auto zero = hn::Zero(d);
   const auto one = hn::Set(d, 1);
   std::size_t u = 0;
   for (; u + n <= pixels; u += n) {
     const auto l = hn::PromoteTo(d, hn::LoadU(bytes, live + u));
-    const auto now = hn::PromoteTo(d, hn::LoadU(words, fine + u));
-    const auto target = hn::Min(finest, hn::ShiftRight<8>(hn::Add(hn::Mul(l, inverse), half_step)));
-    const auto difference = hn::Sub(target, now);
-    auto step = hn::ShiftRight<16>(hn::Mul(difference, alpha));  // arithmetic: toward -inf
-    step = hn::Add(step,
-                   hn::IfThenElseZero(hn::And(hn::Eq(step, zero), hn::Gt(difference, zero)), one));
+    const auto whole_steps = hn::Mul(l, whole);  // at most 255 x 4
+    const auto fraction = hn::Add(hn::MulHigh(hn::ShiftLeft<8>(l), part),
+                                  hn::And(hn::ShiftRight<7>(hn::Mul(l, part)), one));
+    const auto target = hn::SaturatedAdd(
+        hn::IfThenElse(hn::Gt(whole_steps, brightest), finest, hn::ShiftLeft<8>(whole_steps)),
+        fraction);
+    const auto now = hn::LoadU(d, fine + u);
+    const auto above = hn::Gt(target, now);
+    const auto size = hn::Sub(hn::Max(target, now), hn::Min(target, now));
+    const auto high = hn::MulHigh(size, alpha);
+    const auto up = hn::Add(now, hn::Max(high, one));
+    const auto down =
+        hn::Sub(now, hn::Add(high, hn::IfThenElseZero(hn::Ne(hn::Mul(size, alpha), zero), one)));
     const auto is_quiet = hn::Ne(hn::PromoteTo(d, hn::LoadU(bytes, quiet + u)), zero);
     const auto learn = hn::And(is_quiet, hn::Lt(l, clipped));
-    const auto moved = hn::IfThenElse(learn, hn::Add(now, step), now);
-    hn::StoreU(hn::DemoteTo(words, moved), words, fine + u);
-    hn::StoreU(
-        hn::DemoteTo(bytes, hn::Min(brightest, hn::ShiftRight<8>(hn::Add(moved, half_step)))),
-        bytes, grey + u);
+    const auto moved = hn::IfThenElse(learn, hn::IfThenElse(above, up, down), now);
+    hn::StoreU(moved, d, fine + u);
+    const auto rounded = hn::Min(brightest, hn::ShiftRight<8>(hn::SaturatedAdd(moved, half_step)));
+    hn::StoreU(hn::DemoteTo(bytes, hn::BitCast(signed_words, rounded)), bytes, grey + u);
   }
   driftRowScalar(live + u, quiet + u, static_cast<int>(pixels - u), inverse_q16, alpha_q16,
                  saturated, fine + u, grey + u);
