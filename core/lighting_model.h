@@ -89,6 +89,8 @@ class LightingModel {
   // The pixels' noise in the background's light (standard deviation, grey levels): the spread of
   // the samples that agreed with the gain, in the last frame.
   double noise() const { return noise_; }
+  // The local light's step, when settings.local.
+  const LocalLight* local() const { return local_ ? &*local_ : nullptr; }
   // Tiles the local light explained in the last frame.
   std::size_t locallyExplained() const { return locally_explained_; }
 

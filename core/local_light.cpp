@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstring>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
 #include "core/fusion_kernel.h"
 #include "core/lighting_steps.h"
 
@@ -36,8 +39,8 @@ LocalLight::LocalLight(int width, int height)
   queue_.reserve(across_ * down_);
 }
 
-bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size_t tile, float gain,
-                                int threshold, int saturated) const {
+bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size_t tile,
+                                const Light& light, int threshold, int saturated) const {
   const int u0 = static_cast<int>(tile % across_) * 8;
   const int v0 = static_cast<int>(tile / across_) * 8;
   const int u1 = std::min(width_, u0 + 8);
@@ -46,8 +49,10 @@ bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size
   for (int v = v0; v < v1; ++v) {
     const std::uint8_t* l = frame.row(v);
     const std::uint8_t* b = background.row(v);
+    const float row_gain = light.gain + light.per_v * static_cast<float>(v - v0 - 4);
     for (int u = u0; u < u1; ++u) {
-      const float expected = gain * static_cast<float>(b[u]);
+      const float expected =
+          (row_gain + light.per_u * static_cast<float>(u - u0 - 4)) * static_cast<float>(b[u]);
       if (l[u] >= saturated) {
         if (expected + limit <= static_cast<float>(saturated)) return false;
       } else if (std::abs(static_cast<float>(l[u]) - expected) >= limit) {
@@ -58,11 +63,72 @@ bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size
   return true;
 }
 
+std::optional<LocalLight::Light> LocalLight::slopedSeed(ImageView frame, ImageView background,
+                                                        std::size_t tile, double noise2,
+                                                        int threshold, int saturated) const {
+  const int u0 = static_cast<int>(tile % across_) * 8;
+  const int v0 = static_cast<int>(tile / across_) * 8;
+  const int u1 = std::min(width_, u0 + 8);
+  const int v1 = std::min(height_, v0 + 8);
+  // Least squares of l = b (g + gu du + gv dv) over the measured pixels, du and dv from the
+  // tile's middle: three regressors b, b du, b dv.
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d right = Eigen::Vector3d::Zero();
+  double sum_ll = 0.0;
+  // And the background's own plane, b = p + pu du + pv dv: a flat object over a background that is
+  // only a ramp fits a sloped gain (l / b is then about linear too), so such a fit says something
+  // only of the texture a plane leaves.
+  Eigen::Matrix3d plane_normal = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d plane_right = Eigen::Vector3d::Zero();
+  double sum_bb = 0.0;
+  double n = 0.0;
+  for (int v = v0; v < v1; ++v) {
+    const std::uint8_t* l = frame.row(v);
+    const std::uint8_t* b = background.row(v);
+    for (int u = u0; u < u1; ++u) {
+      if (l[u] >= saturated) continue;
+      n += 1.0;
+      const double bb = b[u];
+      const Eigen::Vector3d x(bb, bb * (u - u0 - 4), bb * (v - v0 - 4));
+      normal.noalias() += x * x.transpose();
+      right += x * static_cast<double>(l[u]);
+      sum_ll += static_cast<double>(l[u]) * l[u];
+      const Eigen::Vector3d place(1.0, u - u0 - 4, v - v0 - 4);
+      plane_normal.noalias() += place * place.transpose();
+      plane_right += place * bb;
+      sum_bb += bb * bb;
+    }
+  }
+  const Eigen::LDLT<Eigen::Matrix3d> solver(normal);
+  if (solver.info() != Eigen::Success || !solver.isPositive()) return std::nullopt;
+  const Eigen::Vector3d fit = solver.solve(right);
+  const double residual = sum_ll - fit.dot(right);
+  const Eigen::LDLT<Eigen::Matrix3d> plane_solver(plane_normal);
+  if (plane_solver.info() != Eigen::Success || !plane_solver.isPositive()) return std::nullopt;
+  const double texture = sum_bb - plane_solver.solve(plane_right).dot(plane_right);
+  // The seed rules, as for one gain (explain()).
+  if (fit.x() * fit.x() * texture < kTexture * n * noise2 || residual > kResidual * n * noise2) {
+    return std::nullopt;
+  }
+  // The gain at every corner within the bounds.
+  for (const double du : {-4.0, 3.0}) {
+    for (const double dv : {-4.0, 3.0}) {
+      const double corner = fit.x() + fit.y() * du + fit.z() * dv;
+      if (!(corner >= kLowestGain && corner <= kHighestGain)) return std::nullopt;
+    }
+  }
+  const Light light{static_cast<float>(fit.x()), static_cast<float>(fit.y()),
+                    static_cast<float>(fit.z())};
+  if (!unchangedUnder(frame, background, tile, light, threshold, saturated)) return std::nullopt;
+  return light;
+}
+
 std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView captured,
                                 double noise, int threshold, int saturated,
                                 std::uint8_t* changed_tiles) {
   const double noise2 = std::max(1.0, noise * noise);
   queue_.clear();
+  tally_ = {};
   // The textured tiles that one gain explains: the seeds.
   for (std::size_t tile = 0; tile < state_.size(); ++tile) {
     if (!tileChanged(changed_tiles, tile)) {
@@ -71,7 +137,10 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
     }
     // The light as it was when the background was captured, which the drift may have moved away
     // from (a lamp learnt while it was on and now off again): nothing stands there either.
-    if (!captured.empty() && unchangedUnder(frame, captured, tile, 1.0f, threshold, saturated)) {
+    ++tally_.changed;
+    if (!captured.empty() &&
+        unchangedUnder(frame, captured, tile, Light{1.0f}, threshold, saturated)) {
+      ++tally_.as_captured;
       state_[tile] = kExplained;
       queue_.push_back(
           {static_cast<std::uint32_t>(tile), 1.0f, kReach});  // its gain is not this light's
@@ -86,25 +155,45 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
         lighting_steps::tileSums(frame.row(v0) + u0, frame.stride, background.row(v0) + u0,
                                  background.stride, u1 - u0, v1 - v0, saturated);
     // At least half of the tile measured.
-    if (sum_bb == 0 || 2 * count < static_cast<std::uint32_t>((u1 - u0) * (v1 - v0))) continue;
-    const double n = count;
-    const double gain = static_cast<double>(sum_lb) / sum_bb;
-    if (gain < kLowestGain || gain > kHighestGain) continue;
-    const double residual = static_cast<double>(sum_ll) - gain * sum_lb;
-    const double texture = sum_bb - static_cast<double>(sum_b) * sum_b / n;
-    if (gain * gain * texture < kTexture * n * noise2) continue;  // too flat to tell
-    if (residual > kResidual * n * noise2) continue;              // not one gain: something else
-    if (!unchangedUnder(frame, background, tile, static_cast<float>(gain), threshold, saturated)) {
+    if (sum_bb == 0 || 2 * count < static_cast<std::uint32_t>((u1 - u0) * (v1 - v0))) {
+      ++tally_.clipped;
       continue;
     }
+    const double n = count;
+    const double gain = static_cast<double>(sum_lb) / sum_bb;
+    if (gain < kLowestGain || gain > kHighestGain) {
+      ++tally_.out_of_range;
+      continue;
+    }
+    const double residual = static_cast<double>(sum_ll) - gain * sum_lb;
+    const double texture = sum_bb - static_cast<double>(sum_b) * sum_b / n;
+    if (gain * gain * texture < kTexture * n * noise2) {  // too flat to tell
+      ++tally_.flat;
+      continue;
+    }
+    if (residual > kResidual * n * noise2) {
+      // Not one gain: an object, or light that changes across the tile (a lamp's soft edge, a
+      // shadow's). The walk below tries a gain that changes across it, next to light found.
+      state_[tile] = kMisfit;
+      ++tally_.misfit;
+      continue;
+    }
+    const Light light{static_cast<float>(gain)};
+    if (!unchangedUnder(frame, background, tile, light, threshold, saturated)) {
+      ++tally_.pixel;
+      continue;
+    }
+    ++tally_.seeds;
     state_[tile] = kExplained;
-    queue_.push_back({static_cast<std::uint32_t>(tile), static_cast<float>(gain), 0});
+    queue_.push_back({static_cast<std::uint32_t>(tile), light.gain, 0});
   }
   // Then their gains spread to changed neighbours that are unchanged under them, tile by tile, in
-  // order of distance (a breadth-first walk), as far as kReach.
+  // order of distance (a breadth-first walk), as far as kReach. A neighbour that one gain did not
+  // fit may be a seed of a light that changes across it (slopedSeed): light goes on from light, so
+  // only tiles next to light found are tried (an object's edge, next to a seed, is tried and fails
+  // on its texture or its fit).
   for (std::size_t next = 0; next < queue_.size(); ++next) {
     const Seed seed = queue_[next];
-    if (seed.steps >= kReach) continue;
     const std::size_t column = seed.tile % across_;
     const std::size_t row = seed.tile / across_;
     const std::size_t neighbours[4] = {
@@ -114,10 +203,24 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
         row + 1 < down_ ? seed.tile + across_ : state_.size(),
     };
     for (const std::size_t tile : neighbours) {
-      if (tile >= state_.size() || state_[tile] != kChanged) continue;
-      if (!unchangedUnder(frame, background, tile, seed.gain, threshold, saturated)) continue;
-      state_[tile] = kExplained;
-      queue_.push_back({static_cast<std::uint32_t>(tile), seed.gain, seed.steps + 1});
+      if (tile >= state_.size() || (state_[tile] != kChanged && state_[tile] != kMisfit)) continue;
+      if (seed.steps < kReach &&
+          unchangedUnder(frame, background, tile, Light{seed.gain}, threshold, saturated)) {
+        state_[tile] = kExplained;
+        ++tally_.reached;
+        queue_.push_back({static_cast<std::uint32_t>(tile), seed.gain, seed.steps + 1});
+        continue;
+      }
+      if (state_[tile] != kMisfit) continue;
+      state_[tile] = kChanged;  // tried once
+      if (const std::optional<Light> light =
+              slopedSeed(frame, background, tile, noise2, threshold, saturated)) {
+        state_[tile] = kExplained;
+        --tally_.misfit;
+        ++tally_.seeds;
+        ++tally_.sloped;
+        queue_.push_back({static_cast<std::uint32_t>(tile), light->gain, 0});
+      }
     }
   }
   for (const Seed& seed : queue_) clearTile(changed_tiles, seed.tile);

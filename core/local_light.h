@@ -11,6 +11,10 @@
 //   gain g maps the background onto the frame within the noise (least squares through the origin)
 //   and every pixel passes the usual test against g x background. The texture must be strong
 //   enough that anything hiding it would leave more than the noise: an object cannot pass.
+// - Light that changes across a tile (a lamp's or a shadow's soft edge) fits no one gain. Such a
+//   tile next to light already found is a seed too when a gain that changes linearly across it
+//   fits within the noise, by the same rules, with the texture that a plane leaves: over a
+//   background that is only a ramp, a flat object fits a sloped gain as well as light does.
 // - A changed tile without texture tells light and object apart only by its level. It is light
 //   when every pixel passes the usual test against g x background with the gain g of a textured
 //   tile found as light and reached from it through changed tiles, at most kReach tiles away. The
@@ -29,6 +33,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "core/image.h"
@@ -48,6 +53,34 @@ class LocalLight {
   // tile that matches it, pixel by pixel under the threshold, is explained too.
   std::size_t explain(ImageView frame, ImageView background, ImageView captured, double noise,
                       int threshold, int saturated, std::uint8_t* changed_tiles);
+  // What the last explain() found of the changed tiles: how many it cleared and why, and of those
+  // no seed, the first rule each failed.
+  struct Tally {
+    std::uint64_t changed = 0;
+    std::uint64_t as_captured = 0;   // cleared: the background as captured
+    std::uint64_t seeds = 0;         // cleared: textured, one gain
+    std::uint64_t reached = 0;       // cleared: a seed's gain carried to them
+    std::uint64_t clipped = 0;       // no seed: less than half of the tile measured
+    std::uint64_t out_of_range = 0;  // no seed: its gain beyond a fifth to five times
+    std::uint64_t flat = 0;          // no seed: too little texture to tell
+    std::uint64_t misfit = 0;        // no seed: no one gain fits
+    std::uint64_t pixel = 0;         // no seed: one gain fits, a pixel past the threshold
+    std::uint64_t sloped = 0;        // seeds whose gain changes across the tile
+  };
+  const Tally& tally() const { return tally_; }
+  friend Tally& operator+=(Tally& sum, const Tally& more) {
+    sum.changed += more.changed;
+    sum.as_captured += more.as_captured;
+    sum.seeds += more.seeds;
+    sum.reached += more.reached;
+    sum.clipped += more.clipped;
+    sum.out_of_range += more.out_of_range;
+    sum.flat += more.flat;
+    sum.misfit += more.misfit;
+    sum.pixel += more.pixel;
+    sum.sloped += more.sloped;
+    return sum;
+  }
   // Whether the last explain() cleared the tile.
   bool explainedTile(std::size_t tile) const { return state_[tile] == kExplained; }
   // Calls each(tile) for every tile the last explain() cleared.
@@ -70,16 +103,31 @@ class LocalLight {
   static constexpr int kReach = 3;
 
  private:
-  enum State : std::uint8_t { kUnchanged, kChanged, kExplained };
+  // kMisfit: changed, textured, and one gain does not fit it.
+  enum State : std::uint8_t { kUnchanged, kChanged, kMisfit, kExplained };
   struct Seed {
     std::uint32_t tile;
     float gain;
     int steps;  // from the textured tile whose gain this is
   };
+  // A tile's light: a gain at its middle (pixel (4, 4) of the tile), changing by per_u and per_v a
+  // pixel across and down.
+  struct Light {
+    float gain = 1.0f;
+    float per_u = 0.0f;
+    float per_v = 0.0f;
+  };
   // Whether every pixel of the tile passes |frame - gain x background| < threshold (a clipped one:
-  // gain x background + threshold above where clipping starts).
-  bool unchangedUnder(ImageView frame, ImageView background, std::size_t tile, float gain,
+  // gain x background + threshold above where clipping starts), the gain the light's at the pixel.
+  bool unchangedUnder(ImageView frame, ImageView background, std::size_t tile, const Light& light,
                       int threshold, int saturated) const;
+  // The least-squares light that changes linearly across the tile, over its pixels below
+  // `saturated`, if the tile is a seed of it: the fit's squared misfit under kResidual n sigma²,
+  // the background's texture that a plane leaves (the misfit of its own least-squares plane: a
+  // flat object over a floor that is only a ramp fits a sloped gain too) at least kTexture n sigma²
+  // over gain², the gain at every corner within the bounds, and every pixel unchanged under it.
+  std::optional<Light> slopedSeed(ImageView frame, ImageView background, std::size_t tile,
+                                  double noise2, int threshold, int saturated) const;
 
   int width_;
   int height_;
@@ -87,6 +135,7 @@ class LocalLight {
   std::size_t down_;
   std::vector<std::uint8_t> state_;  // per tile: kUnchanged, kChanged, kExplained
   std::vector<Seed> queue_;          // tiles found as light, to spread their gain from
+  Tally tally_;
 };
 
 }  // namespace occmap

@@ -149,6 +149,24 @@ double percent(std::uint64_t part, std::uint64_t whole) {
   return whole == 0 ? 0.0 : 100.0 * static_cast<double>(part) / static_cast<double>(whole);
 }
 
+// What the local light (core/local_light.h) made of the changed tiles of every camera and frame:
+// where a lamp or the sun is left changed, and why.
+void printLocalLight(const LocalLight::Tally& t) {
+  const auto share = [&t](std::uint64_t n) {
+    return 100.0 * static_cast<double>(n) / static_cast<double>(t.changed);
+  };
+  std::printf(
+      "the local light: of %llu changed tiles (every camera, every map), %.1f %% cleared as light "
+      "(%.1f %% seeds, %.1f %% of them with a gain that changes across the tile; %.1f %% reached "
+      "from seeds; %.1f %% as captured); no seed: %.1f %% too flat to tell, %.1f %% no gain fits, "
+      "%.1f %% clipped, %.1f %% beyond the gain's bounds, %.1f %% a pixel past the threshold\n",
+      static_cast<unsigned long long>(t.changed), share(t.seeds + t.reached + t.as_captured),
+      share(t.seeds),
+      t.seeds > 0 ? 100.0 * static_cast<double>(t.sloped) / static_cast<double>(t.seeds) : 0.0,
+      share(t.reached), share(t.as_captured), share(t.flat), share(t.misfit), share(t.clipped),
+      share(t.out_of_range), share(t.pixel));
+}
+
 int run(const FuseOptions& o) {
   const Config config = loadConfig(o.config);
   const fs::path out(o.out);
@@ -221,6 +239,7 @@ int run(const FuseOptions& o) {
   std::uint64_t maps = 0;
   std::uint64_t counts[3] = {0, 0, 0};
   TruthScore score;
+  LocalLight::Tally local_light;  // every camera's, every frame's
   while (o.frames == 0 || maps < o.frames) {
     bool ended = false;
     for (std::size_t k = 0; k < cameras.size() && !ended; ++k) {
@@ -250,6 +269,10 @@ int run(const FuseOptions& o) {
           changed_pixels[k].mark(kernel, k, frame.image, *backgrounds[k], cameras[k].threshold,
                                  changed[k].data(), time_us)) {
         masks[k] = changed[k].data();
+      }
+      if (const LightingModel* model = changed_pixels[k].lighting();
+          status == FrameSource::Status::kFrame && model != nullptr && model->local() != nullptr) {
+        local_light += model->local()->tally();
       }
       if (status == FrameSource::Status::kFrame && !masks[k]) {
         ++views[k].left_out;
@@ -288,8 +311,9 @@ int run(const FuseOptions& o) {
     if (truth_maker) {
       const double t = cameras.front().sim->lastTime();
       const std::vector<double> events = cameras.front().sim->scene().eventTimes();
-      const bool settled = std::none_of(events.begin(), events.end(),
-                                        [t](double event) { return t >= event && t < event + 1.0; });
+      const bool settled = std::none_of(events.begin(), events.end(), [t](double event) {
+        return t >= event && t < event + 1.0;
+      });
       score.add(map, truth_maker->at(cameras.front().sim->scene().objectsAt(t)), settled);
     }
     if (!o.snapshot.empty()) {
@@ -346,6 +370,7 @@ int run(const FuseOptions& o) {
           100.0 * score.settled_worst_free);
     }
   }
+  if (local_light.changed > 0) printLocalLight(local_light);
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     const ViewReport& view = views[k];
     if (view.left_out == 0) continue;
