@@ -43,7 +43,7 @@ const std::array<std::uint16_t, 65536>& binOfPair() {
     for (int b = 0; b < 256; ++b) {
       for (int l = 0; l < 256; ++l) {
         std::uint16_t bin = kUnusable;
-        if (b >= kDarkest && b <= kBrightest && l < kSaturated && l >= 2) {
+        if (lighting_steps::usableSample(static_cast<std::uint16_t>(b << 8 | l), kUsable)) {
           const double ratio = ln[static_cast<std::size_t>(l)] - ln[static_cast<std::size_t>(b)];
           bin = static_cast<std::uint16_t>(
               std::clamp(static_cast<int>((ratio + kLogRange) * kBinsPerLog), 0, kBins - 1));
@@ -87,8 +87,8 @@ void LightingModel::reset(ImageView background) {
   }
   histogram_.assign(kBins, 0);
   quiet_row_.assign(tilesAcross(width_) * 8, 0);
-  const std::size_t samples = static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep) *
-                              static_cast<std::size_t>((height_ + kSampleStep - 1) / kSampleStep);
+  const std::size_t samples =
+      samplesPerRow() * static_cast<std::size_t>((height_ + kSampleStep - 1) / kSampleStep);
   samples_.assign(samples, 0);
   static_assert(kSampleStep == 4, "lighting_steps::samplePairs takes every fourth pixel");
   usable_ = 0;
@@ -107,7 +107,7 @@ void LightingModel::reset(ImageView background) {
 
 void LightingModel::estimateGain(ImageView live) {
   const std::array<std::uint16_t, 65536>& bin_of = binOfPair();
-  const std::size_t per_row = static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep);
+  const std::size_t per_row = samplesPerRow();
   std::uint16_t* samples = samples_.data();
   for (int v = 0, row = 0; v < height_; v += kSampleStep, ++row) {
     // A live frame comes from the camera, not from the cache: the next sampled row is asked for
@@ -226,7 +226,7 @@ std::size_t LightingModel::explainLocally(ImageView corrected, int threshold,
   // The samples that disagreed with the gain but lie where a local light explains the change count
   // as agreeing: a lamp over a third of the view is light, not a bumped camera. Each tile holds the
   // four samples at its pixels (0, 0), (4, 0), (0, 4) and (4, 4).
-  const std::size_t per_row = static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep);
+  const std::size_t per_row = samplesPerRow();
   const std::size_t across = tilesAcross(width_);
   std::size_t explained_here = 0;
   local_->forEachExplainedTile([&](std::size_t tile) {

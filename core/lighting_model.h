@@ -105,6 +105,10 @@ class LightingModel {
 
  private:
   void estimateGain(ImageView live);
+  // The gain's samples in a sampled row (samples_ holds them row by row).
+  std::size_t samplesPerRow() const {
+    return static_cast<std::size_t>((width_ + kSampleStep - 1) / kSampleStep);
+  }
   void updateInverse();
 
   LightingSettings settings_;

@@ -41,10 +41,7 @@ LocalLight::LocalLight(int width, int height)
 
 bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size_t tile,
                                 const Light& light, int threshold, int saturated) const {
-  const int u0 = static_cast<int>(tile % across_) * 8;
-  const int v0 = static_cast<int>(tile / across_) * 8;
-  const int u1 = std::min(width_, u0 + 8);
-  const int v1 = std::min(height_, v0 + 8);
+  const auto [u0, v0, u1, v1] = pixelsOf(tile);
   const auto limit = static_cast<float>(threshold);
   for (int v = v0; v < v1; ++v) {
     const std::uint8_t* l = frame.row(v);
@@ -66,10 +63,7 @@ bool LocalLight::unchangedUnder(ImageView frame, ImageView background, std::size
 std::optional<LocalLight::Light> LocalLight::slopedSeed(ImageView frame, ImageView background,
                                                         std::size_t tile, double noise2,
                                                         int threshold, int saturated) const {
-  const int u0 = static_cast<int>(tile % across_) * 8;
-  const int v0 = static_cast<int>(tile / across_) * 8;
-  const int u1 = std::min(width_, u0 + 8);
-  const int v1 = std::min(height_, v0 + 8);
+  const auto [u0, v0, u1, v1] = pixelsOf(tile);
   // Least squares of l = b (g + gu du + gv dv) over the measured pixels, du and dv from the
   // tile's middle: three regressors b, b du, b dv.
   Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
@@ -147,10 +141,7 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
       continue;
     }
     state_[tile] = kChanged;
-    const int u0 = static_cast<int>(tile % across_) * 8;
-    const int v0 = static_cast<int>(tile / across_) * 8;
-    const int u1 = std::min(width_, u0 + 8);
-    const int v1 = std::min(height_, v0 + 8);
+    const auto [u0, v0, u1, v1] = pixelsOf(tile);
     const auto [count, sum_b, sum_bb, sum_lb, sum_ll] =
         lighting_steps::tileSums(frame.row(v0) + u0, frame.stride, background.row(v0) + u0,
                                  background.stride, u1 - u0, v1 - v0, saturated);

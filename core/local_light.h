@@ -31,6 +31,7 @@
 // until the background is taken again.
 // No I/O, no threads; after construction nothing is allocated.
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -81,8 +82,6 @@ class LocalLight {
     sum.sloped += more.sloped;
     return sum;
   }
-  // Whether the last explain() cleared the tile.
-  bool explainedTile(std::size_t tile) const { return state_[tile] == kExplained; }
   // Calls each(tile) for every tile the last explain() cleared.
   template <typename Each>
   void forEachExplainedTile(Each&& each) const {
@@ -110,6 +109,15 @@ class LocalLight {
     float gain;
     int steps;  // from the textured tile whose gain this is
   };
+  // A tile's pixels: [u0, u1) x [v0, v1), cut by the image's edge.
+  struct TilePixels {
+    int u0, v0, u1, v1;
+  };
+  TilePixels pixelsOf(std::size_t tile) const {
+    const int u0 = static_cast<int>(tile % across_) * 8;
+    const int v0 = static_cast<int>(tile / across_) * 8;
+    return {u0, v0, std::min(width_, u0 + 8), std::min(height_, v0 + 8)};
+  }
   // A tile's light: a gain at its middle (pixel (4, 4) of the tile), changing by per_u and per_v a
   // pixel across and down.
   struct Light {
@@ -133,7 +141,7 @@ class LocalLight {
   int height_;
   std::size_t across_;
   std::size_t down_;
-  std::vector<std::uint8_t> state_;  // per tile: kUnchanged, kChanged, kExplained
+  std::vector<std::uint8_t> state_;  // per tile, a State
   std::vector<Seed> queue_;          // tiles found as light, to spread their gain from
   Tally tally_;
 };
