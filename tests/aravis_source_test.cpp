@@ -687,9 +687,18 @@ TEST_F(SilentGigECamera, IsReopenedByItsCallerAndStreamsOnWithItsFrameNumbersGoi
   std::printf("a stalled camera reopened in %.2f s\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - reopening).count());
   EXPECT_EQ(source->state(), SourceState::kStarting);
-  ASSERT_EQ(nextFrame(*source, frame), FrameSource::Status::kFrame) << source->lastError();
+  // The frame the camera was sending when it stopped may come first, cut short: reported as an
+  // error and counted, so the next whole frame's number is one further on.
+  std::uint64_t cut = 0;
+  FrameSource::Status status = nextFrame(*source, frame);
+  if (status == FrameSource::Status::kError &&
+      source->lastError().find("missing packets") != std::string::npos) {
+    cut = 1;
+    status = nextFrame(*source, frame);
+  }
+  ASSERT_EQ(status, FrameSource::Status::kFrame) << source->lastError();
   EXPECT_EQ(source->state(), SourceState::kStreaming);
-  EXPECT_EQ(frame.sequence, last + 1) << "frame numbers go on across the reopen";
+  EXPECT_EQ(frame.sequence, last + 1 + cut) << "frame numbers go on across the reopen";
   last = frame.sequence;
 
   // Killed: silence again, and no reopen succeeds until the camera is back.
