@@ -186,6 +186,7 @@ ImageView LightingModel::correct(ImageView live) {
   estimateGain(live);
   updateInverse();
   ++frames_;
+  local_ran_ = false;
   // live / gain, rounded, at most 255: in 16.16 fixed point (core/lighting_steps.h).
   const std::int32_t inverse = inverse_gain_q16_;
   // In light within 0.2 % of the background's, dividing changes no grey level (255 / gain rounds
@@ -223,6 +224,7 @@ std::size_t LightingModel::explainLocally(ImageView corrected, int threshold,
   const int saturated = (kSaturated * inverse_gain_q16_ + 32768) >> 16;
   locally_explained_ = local_->explain(corrected, background(), captured_.view(), noise_, threshold,
                                        saturated, changed_tiles);
+  local_ran_ = true;
   // The samples that disagreed with the gain but lie where a local light explains the change count
   // as agreeing: a lamp over a third of the view is light, not a bumped camera. Each tile holds the
   // four samples at its pixels (0, 0), (4, 0), (0, 4) and (4, 4).
@@ -265,13 +267,22 @@ void LightingModel::follow(ImageView live, const std::uint8_t* changed_tiles) {
   const std::size_t last = (band + 1) * down / kBands;
   std::uint8_t* quiet = quiet_row_.data();
   for (std::size_t tile_row = first; tile_row < last; ++tile_row) {
-    // 1 for every pixel of a wholly unchanged tile: only there is anything learnt.
+    // 1 for every pixel of a wholly unchanged tile: only there is anything learnt. Not where the
+    // local light cleared the tile as light in part of the view: that light is explained anew
+    // every frame from the background's texture, never learnt. Learnt, the tiles it cleared
+    // would stop being changed and so stop being seeds, while their flat neighbours, which only
+    // a seed's gain reaches, stayed changed for good (measured: a lamp's pool left as a
+    // patchwork of learnt and changed tiles, docs/lighting.md); and an object as bright as the
+    // light next to it, whose outer tiles the light's reach clears, would be learnt.
+    const LocalLight* lit = local_ran_ ? &*local_ : nullptr;
     bool any = false;
     for (std::size_t tile = 0; tile < across; ++tile) {
+      const std::size_t index = tile_row * across + tile;
       std::uint64_t word;
-      std::memcpy(&word, changed_tiles + (tile_row * across + tile) * 8, sizeof word);
-      std::memset(quiet + tile * 8, word == 0 ? 1 : 0, 8);
-      any = any || word == 0;
+      std::memcpy(&word, changed_tiles + index * 8, sizeof word);
+      const bool learn = word == 0 && (lit == nullptr || !lit->lit(index));
+      std::memset(quiet + tile * 8, learn ? 1 : 0, 8);
+      any = any || learn;
     }
     if (!any) continue;
     const int v0 = static_cast<int>(tile_row * 8);

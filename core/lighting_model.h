@@ -73,7 +73,8 @@ class LightingModel {
 
   // After the difference, once per frame: `changed_tiles` is the frame's changed-pixel mask
   // (core/fusion_kernel.h's tile layout). Pixels of wholly unchanged tiles move toward the frame;
-  // one band of tile rows a frame, in turn. Nothing moves in a frame the gain did not explain.
+  // one band of tile rows a frame, in turn. Nothing moves in a frame the gain did not explain, nor
+  // in a tile explainLocally cleared as light in part of the view.
   void follow(ImageView live, const std::uint8_t* changed_tiles);
 
   // Between the two, when settings.local: clears the changed tiles that a light in part of the view
@@ -135,6 +136,7 @@ class LightingModel {
   bool explained_ = true;
   std::optional<LocalLight> local_;
   std::size_t locally_explained_ = 0;
+  bool local_ran_ = false;  // whether local_ explained this frame's changed tiles
   std::uint64_t frames_ = 0;
 };
 

@@ -135,7 +135,7 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
     if (!captured.empty() &&
         unchangedUnder(frame, captured, tile, Light{1.0f}, threshold, saturated)) {
       ++tally_.as_captured;
-      state_[tile] = kExplained;
+      state_[tile] = kCaptured;
       queue_.push_back(
           {static_cast<std::uint32_t>(tile), 1.0f, kReach});  // its gain is not this light's
       continue;
@@ -179,7 +179,7 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
       continue;
     }
     ++tally_.seeds;
-    state_[tile] = kExplained;
+    state_[tile] = kLit;
     queue_.push_back({static_cast<std::uint32_t>(tile), light.gain, 0});
   }
   // Then their gains spread to changed neighbours that are unchanged under them, tile by tile, in
@@ -201,7 +201,7 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
       if (tile >= state_.size() || (state_[tile] != kChanged && state_[tile] != kMisfit)) continue;
       if (seed.steps < kReach &&
           unchangedUnder(frame, background, tile, Light{seed.gain}, threshold, saturated)) {
-        state_[tile] = kExplained;
+        state_[tile] = kLit;
         ++tally_.reached;
         queue_.push_back({static_cast<std::uint32_t>(tile), seed.gain, seed.steps + 1});
         continue;
@@ -210,7 +210,7 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
       state_[tile] = kChanged;  // tried once
       if (const std::optional<Light> light =
               slopedSeed(frame, background, tile, noise2, threshold, saturated)) {
-        state_[tile] = kExplained;
+        state_[tile] = kLit;
         --tally_.misfit;
         ++tally_.seeds;
         ++tally_.sloped;

@@ -82,6 +82,10 @@ class LocalLight {
     sum.sloped += more.sloped;
     return sum;
   }
+  // Whether the last explain() cleared the tile as light in part of the view (a seed, or reached
+  // from one), not as the background as captured. Such a tile is not learnt by the drift
+  // (LightingModel::follow): it is explained anew every frame from its own evidence.
+  bool lit(std::size_t tile) const { return state_[tile] == kLit; }
   // Calls each(tile) for every tile the last explain() cleared.
   template <typename Each>
   void forEachExplainedTile(Each&& each) const {
@@ -102,8 +106,9 @@ class LocalLight {
   static constexpr int kReach = 3;
 
  private:
-  // kMisfit: changed, textured, and one gain does not fit it.
-  enum State : std::uint8_t { kUnchanged, kChanged, kMisfit, kExplained };
+  // kMisfit: changed, textured, and one gain does not fit it. kLit: cleared as light; kCaptured:
+  // cleared as the background as captured.
+  enum State : std::uint8_t { kUnchanged, kChanged, kMisfit, kLit, kCaptured };
   struct Seed {
     std::uint32_t tile;
     float gain;

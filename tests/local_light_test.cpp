@@ -251,19 +251,24 @@ TEST(LocalLight, ALampsSoftEdgeIsSeenThroughAndAFlatBoxOnARampIsNot) {
   }
 }
 
-// A lamp left on long enough for the drift to learn its light, then switched off: the floor is as
-// it was captured, and the first frame in the old light sees it so, without waiting for the drift
-// to unlearn the lamp. Two rules see to it here, the background as captured and the seeds'
-// texture in the old light (this test passes with either alone; sim://room-lamps measures the
-// first: docs/lighting.md).
+// A lamp turned up slowly (a dimmer, the evening's light through a window) is learnt by the drift,
+// since its tiles never change by the threshold from one visit to the next; then switched off: the
+// floor is as it was captured, and the first frame in the old light sees it so, without waiting
+// for the drift to unlearn the lamp. Two rules see to it here, the background as captured and the
+// seeds' texture in the old light (this test passes with either alone; sim://room-lamps measures
+// the first: docs/lighting.md).
 TEST(LocalLight, AfterALearntLampGoesOutTheFloorIsAtOnceAsCaptured) {
   const Image floor = plankFloor(5, 3.0);  // a faint grain: most tiles are seeds only in the lamp
-  const std::vector<Patch> lamp = {{true, 80, 60, 40, 0, 12, 1.7}};
   std::mt19937 random(9);
   LightingSettings fast;
   fast.drift_frames = 16;
   LightingModel model(floor.view(), fast);
-  for (int n = 0; n < 400; ++n) throughModel(model, frame(floor, lamp, {}, random));
+  for (int n = 0; n <= 400; ++n) {
+    const std::vector<Patch> dimmer = {{true, 80, 60, 40, 0, 12, 1.0 + 0.7 * n / 400.0}};
+    throughModel(model, frame(floor, dimmer, {}, random));
+  }
+  const std::vector<Patch> lamp = {{true, 80, 60, 40, 0, 12, 1.7}};
+  for (int n = 0; n < 100; ++n) throughModel(model, frame(floor, lamp, {}, random));
   // Learnt: the lit floor is unchanged against the background now, before any local light.
   const Image lit = frame(floor, lamp, {}, random);
   Tiles learnt;
@@ -287,6 +292,78 @@ TEST(LocalLight, AfterALearntLampGoesOutTheFloorIsAtOnceAsCaptured) {
       lamp_tiles, learnt_tiles, learnt_then_unchanged);
   ASSERT_GE(learnt_tiles, 10) << "the drift should have learnt some of the lamp";
   EXPECT_EQ(learnt_then_unchanged, learnt_tiles);
+}
+
+// What the local light clears is explained anew every frame, never learnt by the drift. A lamp
+// switched on at once stays changed against the background for as long as it is on (its tiles
+// cleared each frame by their texture), and a flat box at the pool's edge as bright as the floor
+// in the lamp's light, whose outer tiles the light's reach may clear, is never learnt: when the
+// lamp goes out, every tile of the box is changed against the background (learnt, those tiles
+// would match it). Fails if the drift learns the tiles the local light clears.
+TEST(LocalLight, WhatTheLocalLightClearsIsNeverLearnt) {
+  const Image floor = plankFloor(7);
+  const Patch lamp{true, 70, 60, 34, 0, 8, 1.5};
+  // The box's face, row by row, is the lamp's light on the plank just left of it (a box wrapped in
+  // the floor's wood, as bright as the lit floor beside it), so that the lamp's gain reaches into
+  // it.
+  const Box box{104, 40, 128, 80, 0, 0};
+  const auto withBox = [&](Image live, std::mt19937& noise_source) {
+    std::normal_distribution<double> noise(0.0, 2.0);
+    for (int v = box.v0; v < box.v1; ++v) {
+      for (int u = box.u0; u < box.u1; ++u) {
+        live.at(u, v) = static_cast<std::uint8_t>(
+            std::clamp(std::round(1.5 * floor.at(box.u0 - 1, v) + noise(noise_source)), 0.0, 255.0));
+      }
+    }
+    return live;
+  };
+  std::mt19937 random(13);
+  LightingSettings fast;
+  fast.drift_frames = 16;  // 3000 frames: some 190 time constants
+  LightingModel model(floor.view(), fast);
+  long box_tiles_cleared = 0;
+  long lamp_tiles_changed = 0;
+  long lamp_tiles = 0;
+  for (int n = 0; n < 3000; ++n) {
+    const Image live = withBox(frame(floor, {lamp}, {}, random), random);
+    Tiles before;
+    const ImageView corrected = model.correct(live.view());
+    markChangedPixels(corrected, model.background(), kThreshold, before.bytes.data());
+    Tiles after = before;
+    model.explainLocally(corrected, kThreshold, after.bytes.data());
+    model.follow(live.view(), after.bytes.data());
+    if (n < 2900) continue;
+    for (int tv = 0; tv < kHeight / 8; ++tv) {
+      for (int tu = 0; tu < kWidth / 8; ++tu) {
+        if (tileInside(box, tu, tv)) box_tiles_cleared += after.tileChanged(tu, tv) ? 0 : 1;
+        if (plainLitTile({lamp}, {box}, tu, tv)) {
+          ++lamp_tiles;
+          lamp_tiles_changed += before.tileChanged(tu, tv) ? 1 : 0;
+        }
+      }
+    }
+  }
+  std::printf(
+      "  over the last 100 of 3000 frames: %ld of %ld lamp tiles changed against the background; "
+      "%ld box tiles cleared by the lamp's reach\n",
+      lamp_tiles_changed, lamp_tiles, box_tiles_cleared);
+  ASSERT_GT(lamp_tiles, 200);
+  EXPECT_EQ(lamp_tiles_changed, lamp_tiles) << "the lamp's light was learnt";
+  ASSERT_GT(box_tiles_cleared, 0) << "the box should match the lamp's light at its edge, or this "
+                                     "tests nothing";
+  // The lamp goes out; the box stays.
+  Image dark = frame(floor, {}, {}, random);
+  dark = withBox(std::move(dark), random);
+  Tiles out;
+  markChangedPixels(model.correct(dark.view()), model.background(), kThreshold, out.bytes.data());
+  for (int tv = 0; tv < kHeight / 8; ++tv) {
+    for (int tu = 0; tu < kWidth / 8; ++tu) {
+      if (tileInside(box, tu, tv)) {
+        EXPECT_TRUE(out.tileChanged(tu, tv)) << "the box's tile " << tu << ", " << tv
+                                             << " was learnt into the background";
+      }
+    }
+  }
 }
 
 // Random floors, lights and boxes, 300 cases: a tile wholly inside a box is never cleared when the
