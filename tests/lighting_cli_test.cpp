@@ -170,12 +170,13 @@ TEST(OccmapFuse, AKnockedCameraIsLeftOutThenRePosedAndItsMapsAreTheUnknockedRoom
 // Ten simulated minutes of a day in the room (sim://room-day: the light's +-50 % cycle, the
 // camera's exposure steps, a lamp, a patch of sun, shadows at people's feet, a grey box only 26
 // to 60 grey levels below the floor put down and left, a person standing still for four minutes,
-// c1 knocked by 1 degree at 450 s), a frame set every 5 s on the 4 cm map: every object is found
-// in every map (the box and the still person never freed), the knocked camera is left out from the
-// knock's frame and re-posed at the next (its view still for at least 2 s), and no other camera
-// is ever left out. The floor kept free
-// is reported (docs/lighting.md; the issue asks 98 % of the clearly seen cells at every map a
-// second after an event, which the lamp and the shadows still deny) and held where it is now.
+// c1 knocked by 1 degree at 450 s), a frame set every 5 s on the 4 cm map, with 0.3 m columns (the
+// example's) and with floor points (sim_truth_test's measure, which the issue's 98 % is of): every
+// object is found in every map (the box and the still person never freed), the knocked camera is
+// left out from the knock's frame and re-posed at the next (its view still for at least 2 s), and
+// no other camera is ever left out. The floor kept free is reported (docs/lighting.md, "A day in
+// the room": short of 98 % at every map a second after an event, where the sun clips the sensor
+// and where shadows lie at people's feet on flat planks) and held where it is now.
 TEST(OccmapFuse, ADayInTheRoomFindsEveryObjectAndRePosesTheKnockedCamera) {
   TemporaryFolder folder;
   std::string text = testing::inCoarseMap(
@@ -183,36 +184,61 @@ TEST(OccmapFuse, ADayInTheRoomFindsEveryObjectAndRePosesTheKnockedCamera) {
   ASSERT_NE(text, "") << "examples/sim-room.yaml changed: not the map inCoarseMap knows";
   text = atFps(text, "0.2");
   ASSERT_NE(text, "");
-  folder.write("day.yaml", text);
-  const auto result = runCommand({kOccmap, "fuse", "--config", (folder / "day.yaml").string(),
-                                  "--out", (folder / "maps").string()});
-  ASSERT_EQ(result.exit_code, 0) << result.err;
-  std::printf("%s", result.out.c_str());
-  EXPECT_NE(result.out.find("wrote 120 maps"), std::string::npos) << result.out;
-  EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
-      << result.out;
-  EXPECT_NE(result.out.find("objects found 756 of 756 (100.00 %)"), std::string::npos)
-      << result.out;
-  const std::string moved =
-      "camera c1: 2 frames left out, no change of light explaining them; "
-      "its view moved at map 90: turned ";
-  const std::size_t at = result.out.find(moved);
-  ASSERT_NE(at, std::string::npos) << result.out;
-  EXPECT_NEAR(std::atof(result.out.c_str() + at + moved.size()), 1.0, 0.1) << result.out;
-  EXPECT_NE(result.out.find("; re-posed at map 91 (turned "), std::string::npos) << result.out;
-  for (const char* steady : {"camera c0:", "camera c2:", "camera c3:"}) {
-    EXPECT_EQ(result.out.find(steady), std::string::npos) << result.out;
+  const std::string columns = "column_height_m: 0.3";
+  const std::size_t columns_at = text.find(columns);
+  ASSERT_NE(columns_at, std::string::npos) << "examples/sim-room.yaml has no 0.3 m columns";
+  std::string floor_text = text;
+  floor_text.replace(columns_at, columns.size(), "column_height_m: 0");
+  struct Run {
+    const char* name;
+    const std::string* text;
+    double least_inside_kept;  // of the cells under objects, not free
+    double least_free;         // of the clearly seen cells, all maps
+    double least_worst_free;   // at the worst map a second after every event
+  };
+  // With floor points, the box (86 grey levels) is within the threshold of the planks' seams (102)
+  // and of the darkest planks' grain, so some of its cells are cleared, as by a fixed background in
+  // constant light; it is still found in every map.
+  for (const Run& run :
+       {Run{"columns", &text, 100.0, 94.5, 91.0}, Run{"floor", &floor_text, 95.0, 98.3, 96.5}}) {
+    SCOPED_TRACE(run.name);
+    const std::string name = std::string(run.name) + ".yaml";
+    folder.write(name, *run.text);
+    const auto result = runCommand({kOccmap, "fuse", "--config", (folder / name).string(), "--out",
+                                    (folder / (std::string(run.name) + "-maps")).string()});
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    std::printf("%s\n%s", run.name, result.out.c_str());
+    EXPECT_NE(result.out.find("wrote 120 maps"), std::string::npos) << result.out;
+    const std::string kept = " % of cells under objects not free";
+    const std::size_t kept_at = result.out.find(kept);
+    ASSERT_NE(kept_at, std::string::npos) << result.out;
+    EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind(": ", kept_at) + 2),
+              run.least_inside_kept)
+        << result.out;
+    EXPECT_NE(result.out.find("objects found 756 of 756 (100.00 %)"), std::string::npos)
+        << result.out;
+    const std::string moved =
+        "camera c1: 2 frames left out, no change of light explaining them; "
+        "its view moved at map 90: turned ";
+    const std::size_t at = result.out.find(moved);
+    ASSERT_NE(at, std::string::npos) << result.out;
+    EXPECT_NEAR(std::atof(result.out.c_str() + at + moved.size()), 1.0, 0.1) << result.out;
+    EXPECT_NE(result.out.find("; re-posed at map 91 (turned "), std::string::npos) << result.out;
+    for (const char* steady : {"camera c0:", "camera c2:", "camera c3:"}) {
+      EXPECT_EQ(result.out.find(steady), std::string::npos) << result.out;
+    }
+    const std::string label = "% of cells a camera sees clearly are free";
+    const std::size_t free_at = result.out.find(label);
+    ASSERT_NE(free_at, std::string::npos) << result.out;
+    EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind("; ", free_at) + 2), run.least_free)
+        << result.out;
+    const std::string worst = "clearly free";
+    const std::size_t worst_at = result.out.find(worst);
+    ASSERT_NE(worst_at, std::string::npos) << result.out;
+    EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind(" has ", worst_at) + 5),
+              run.least_worst_free)
+        << result.out;
   }
-  const std::string label = "% of cells a camera sees clearly are free";
-  const std::size_t free_at = result.out.find(label);
-  ASSERT_NE(free_at, std::string::npos) << result.out;
-  EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind("; ", free_at) + 2), 94.5)
-      << result.out;
-  const std::string worst = "clearly free";
-  const std::size_t worst_at = result.out.find(worst);
-  ASSERT_NE(worst_at, std::string::npos) << result.out;
-  EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind(" has ", worst_at) + 5), 91.0)
-      << result.out;
 }
 
 }  // namespace

@@ -311,8 +311,8 @@ TEST(LocalLight, WhatTheLocalLightClearsIsNeverLearnt) {
     std::normal_distribution<double> noise(0.0, 2.0);
     for (int v = box.v0; v < box.v1; ++v) {
       for (int u = box.u0; u < box.u1; ++u) {
-        live.at(u, v) = static_cast<std::uint8_t>(
-            std::clamp(std::round(1.5 * floor.at(box.u0 - 1, v) + noise(noise_source)), 0.0, 255.0));
+        live.at(u, v) = static_cast<std::uint8_t>(std::clamp(
+            std::round(1.5 * floor.at(box.u0 - 1, v) + noise(noise_source)), 0.0, 255.0));
       }
     }
     return live;
@@ -359,8 +359,8 @@ TEST(LocalLight, WhatTheLocalLightClearsIsNeverLearnt) {
   for (int tv = 0; tv < kHeight / 8; ++tv) {
     for (int tu = 0; tu < kWidth / 8; ++tu) {
       if (tileInside(box, tu, tv)) {
-        EXPECT_TRUE(out.tileChanged(tu, tv)) << "the box's tile " << tu << ", " << tv
-                                             << " was learnt into the background";
+        EXPECT_TRUE(out.tileChanged(tu, tv))
+            << "the box's tile " << tu << ", " << tv << " was learnt into the background";
       }
     }
   }
