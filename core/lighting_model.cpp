@@ -93,6 +93,7 @@ void LightingModel::reset(ImageView background) {
   static_assert(kSampleStep == 4, "lighting_steps::samplePairs takes every fourth pixel");
   usable_ = 0;
   agreeing_ = 0;
+  clipped_ = 0;
   if (settings_.local) local_.emplace(width_, height_);
   gain_ = 1.0;
   agreement_ = 1.0;
@@ -130,6 +131,7 @@ void LightingModel::estimateGain(ImageView live) {
   }
   usable_ = 0;
   agreeing_ = 0;
+  clipped_ = 0;
   if (counted == 0) {
     agreement_ = 0.0;
     explained_ = false;
@@ -148,11 +150,33 @@ void LightingModel::estimateGain(ImageView live) {
   // their ratio is the least noisy).
   // The band widens with a brighter light: the background's rounding and a camera gain's noise
   // grow with it.
-  const double band = settings_.agreement_grey_levels * std::max(1.0, median);
-  agreement_gain_ = static_cast<float>(median);
-  agreement_band_ = static_cast<float>(band);
-  const lighting_steps::Agreement sums = lighting_steps::agreement(
-      samples_.data(), samples_.size(), agreement_gain_, agreement_band_, kUsable);
+  const auto judge = [&](double gain) {
+    return lighting_steps::agreement(
+        samples_.data(), samples_.size(), static_cast<float>(gain),
+        static_cast<float>(settings_.agreement_grey_levels * std::max(1.0, gain)), kUsable);
+  };
+  // What the light clips as it says agrees too: in a light that clips most of the view, what is
+  // left usable is mostly what stands in it.
+  const auto share = [](const lighting_steps::Agreement& sums) {
+    return static_cast<double>(sums.agreeing + sums.clipped) /
+           static_cast<double>(std::max<std::size_t>(1, sums.usable + sums.clipped));
+  };
+  double judged_by = median;
+  lighting_steps::Agreement sums = judge(median);
+  // And then the median of the usable samples may be theirs, not the light's (measured: at twice
+  // the light, in sim://room-gains, the median of a camera beside people fell from 1.9 to 1.08
+  // for two frames). When the median's gain explains too little, the last frame's gain is tried
+  // too, and the one that explains more is kept.
+  if (share(sums) < settings_.min_agreement && frames_ > 0 &&
+      std::abs(std::log(gain_ / median)) * kBinsPerLog > 1.0) {
+    const lighting_steps::Agreement last = judge(gain_);
+    if (share(last) > share(sums)) {
+      sums = last;
+      judged_by = gain_;
+    }
+  }
+  agreement_gain_ = static_cast<float>(judged_by);
+  agreement_band_ = static_cast<float>(settings_.agreement_grey_levels * std::max(1.0, judged_by));
   usable_ = sums.usable;
   if (usable_ < kFewestSamples) {
     agreement_ = 0.0;
@@ -160,16 +184,17 @@ void LightingModel::estimateGain(ImageView live) {
     return;
   }
   agreeing_ = sums.agreeing;
-  agreement_ = static_cast<double>(agreeing_) / static_cast<double>(usable_);
+  clipped_ = sums.clipped;
+  agreement_ = share(sums);
   explained_ = agreement_ >= settings_.min_agreement && sums.sum_bb > 0.0;
   // The gain of what agrees, even when too little agrees for the frame to count yet: a light in
   // part of the view (explainLocally) may explain the rest.
   if (agreeing_ >= kFewestSamples && sums.sum_bb > 0.0) {
     gain_ = std::clamp(sums.sum_lb / sums.sum_bb, 0.25, 4.0);
-    // The squared residuals about the median's gain, from the exact sums; in the background's
-    // light, as the frame is compared.
-    const double squared_residuals =
-        std::max(0.0, sums.sum_ll - 2.0 * median * sums.sum_lb + median * median * sums.sum_bb);
+    // The squared residuals about the gain the samples were judged by, from the exact sums; in
+    // the background's light, as the frame is compared.
+    const double squared_residuals = std::max(
+        0.0, sums.sum_ll - 2.0 * judged_by * sums.sum_lb + judged_by * judged_by * sums.sum_bb);
     noise_ = std::sqrt(squared_residuals / static_cast<double>(agreeing_)) / gain_;
   }
 }
@@ -245,7 +270,8 @@ std::size_t LightingModel::explainLocally(ImageView corrected, int threshold,
       }
     }
   });
-  agreement_ = static_cast<double>(agreeing_ + explained_here) / static_cast<double>(usable_);
+  agreement_ = static_cast<double>(agreeing_ + clipped_ + explained_here) /
+               static_cast<double>(usable_ + clipped_);
   explained_ = agreement_ >= settings_.min_agreement;
   return locally_explained_;
 }

@@ -82,7 +82,8 @@ class LightingModel {
   std::size_t explainLocally(ImageView corrected, int threshold, std::uint8_t* changed_tiles);
 
   double gain() const { return gain_; }
-  // The share of the usable sampled pixels that agreed with the gain, in the last frame.
+  // The share of the usable sampled pixels that agreed with the gain, in the last frame (and of
+  // those the gain says are clipped, which are, counted as agreeing).
   double agreement() const { return agreement_; }
   // Whether the last frame's change was light (agreement at least min_agreement). After
   // explainLocally, samples in tiles a local light explains count as agreeing.
@@ -127,6 +128,7 @@ class LightingModel {
   float agreement_gain_ = 1.0f;  // the median's gain and the band the samples were judged by
   float agreement_band_ = 0.0f;
   std::size_t usable_ = 0;
+  std::size_t clipped_ = 0;  // samples the light clips as it says: they agree, but are not usable
   std::size_t agreeing_ = 0;
   std::vector<std::uint8_t> quiet_row_;    // follow(): 1 per pixel of a wholly unchanged tile
   std::int32_t inverse_gain_q16_ = 65536;  // 1 / gain in 16.16

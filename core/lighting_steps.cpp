@@ -139,6 +139,7 @@ Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples, std::size_t
   const auto above_brightest = hn::Set(d, usable.brightest + 1);
   const auto black = hn::Set(d, 1);
   const auto saturated = hn::Set(d, usable.saturated);
+  const auto saturated_float = hn::Set(df, static_cast<float>(usable.saturated));
   Agreement out;
   std::uint64_t sum_lb = 0, sum_bb = 0, sum_ll = 0;
   std::size_t s = 0;
@@ -146,15 +147,20 @@ Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples, std::size_t
     // Each lane sums at most 65025 a sample in 32 bits: 2^16 vectors a block fit.
     const std::size_t block_end = s + std::min<std::size_t>((count - s) / n, 65536) * n;
     auto lb = hn::Zero(du), bb = hn::Zero(du), ll = hn::Zero(du);
-    auto used_lanes = hn::Zero(du), agreeing_lanes = hn::Zero(du);
+    auto used_lanes = hn::Zero(du), agreeing_lanes = hn::Zero(du), clipped_lanes = hn::Zero(du);
     for (; s < block_end; s += n) {
       const auto pair = hn::PromoteTo(d, hn::LoadU(d16, samples + s));
       const auto b = hn::ShiftRight<8>(pair);
       const auto l = hn::And(pair, low_byte);
       const auto used = hn::And(hn::And(hn::Gt(b, below_darkest), hn::Lt(b, above_brightest)),
                                 hn::And(hn::Gt(l, black), hn::Lt(l, saturated)));
-      const auto error = hn::Abs(hn::Sub(hn::ConvertTo(df, l), hn::Mul(g, hn::ConvertTo(df, b))));
+      const auto expected = hn::Mul(g, hn::ConvertTo(df, b));
+      const auto error = hn::Abs(hn::Sub(hn::ConvertTo(df, l), expected));
       const auto agree = hn::And(used, hn::RebindMask(d, hn::Lt(error, limit)));
+      const auto clipped =
+          hn::And(hn::And(hn::Gt(b, below_darkest), hn::Not(hn::Lt(l, saturated))),
+                  hn::RebindMask(d, hn::Ge(hn::Add(expected, limit), saturated_float)));
+      clipped_lanes = hn::Sub(clipped_lanes, hn::BitCast(du, hn::VecFromMask(d, clipped)));
       lb = hn::Add(lb, hn::BitCast(du, hn::IfThenElseZero(agree, hn::Mul(l, b))));
       bb = hn::Add(bb, hn::BitCast(du, hn::IfThenElseZero(agree, hn::Mul(b, b))));
       ll = hn::Add(ll, hn::BitCast(du, hn::IfThenElseZero(agree, hn::Mul(l, l))));
@@ -173,6 +179,7 @@ Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples, std::size_t
     add(ll, sum_ll);
     add(used_lanes, out.usable);
     add(agreeing_lanes, out.agreeing);
+    add(clipped_lanes, out.clipped);
   }
   const Agreement tail = agreementScalar(samples + s, count - s, gain, band, usable);
   out.sum_lb = static_cast<double>(sum_lb) + tail.sum_lb;
@@ -180,6 +187,7 @@ Agreement agreementVector(const std::uint16_t* HWY_RESTRICT samples, std::size_t
   out.sum_ll = static_cast<double>(sum_ll) + tail.sum_ll;
   out.usable += tail.usable;
   out.agreeing += tail.agreeing;
+  out.clipped += tail.clipped;
   return out;
 }
 
@@ -309,6 +317,7 @@ Agreement agreementScalar(const std::uint16_t* samples, std::size_t count, float
   Agreement out;
   std::uint64_t sum_lb = 0, sum_bb = 0, sum_ll = 0;
   for (std::size_t s = 0; s < count; ++s) {
+    out.clipped += clippedAsTheLightSays(samples[s], gain, band, usable) ? 1 : 0;
     if (!usableSample(samples[s], usable)) continue;
     ++out.usable;
     if (!agrees(samples[s], gain, band)) continue;

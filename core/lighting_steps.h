@@ -47,7 +47,8 @@ void samplePairsScalar(const std::uint8_t* background, const std::uint8_t* live,
 // and a live grey level of at least 2 and below `saturated`. Of those, the ones with
 // |live - gain x background| < band agree (agrees() below, the very operations of every target):
 // their count and their sums of live x background, background² and live² (integers, exact in a
-// double).
+// double). And the samples the light clips as it says (clippedAsTheLightSays()), counted apart:
+// they say nothing of the gain, but they agree with it.
 struct Usable {
   int darkest = 0;
   int brightest = 255;
@@ -59,6 +60,7 @@ struct Agreement {
   double sum_ll = 0.0;
   std::size_t usable = 0;
   std::size_t agreeing = 0;
+  std::size_t clipped = 0;
 };
 Agreement agreement(const std::uint16_t* samples, std::size_t count, float gain, float band,
                     Usable usable);
@@ -75,6 +77,15 @@ inline bool agrees(std::uint16_t sample, float gain, float band) {
   const auto b = static_cast<float>(sample >> 8);
   const auto l = static_cast<float>(sample & 0xFF);
   return std::abs(l - gain * b) < band;
+}
+// A live grey level at `saturated` or above over a background of at least `darkest` that the gain
+// says is clipped too (gain x background within the band of `saturated`, or above): in a bright
+// light most of a view may clip, and what is left usable is then mostly what stands in it.
+inline bool clippedAsTheLightSays(std::uint16_t sample, float gain, float band, Usable usable) {
+  const int b = sample >> 8;
+  const int l = sample & 0xFF;
+  return b >= usable.darkest && l >= usable.saturated &&
+         gain * static_cast<float>(b) + band >= static_cast<float>(usable.saturated);
 }
 
 // One tile's sums for the local light's fit (core/local_light.h): over the `width` x `height`

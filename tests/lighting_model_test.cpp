@@ -505,6 +505,39 @@ TEST(LightingModel, WhatNoGainExplainsIsSaidAndNothingIsLearnt) {
   }
 }
 
+// A light that clips half of the floor (twice the light on a floor of 100 to 170 grey levels) and
+// a crowd over 45 % of the view: what is left usable is mostly the crowd, whose median ratio is
+// its own (about a third), not the light's. The light's gain is kept all the same, since the last
+// frame's gain explains more of the view (the floor left usable and the floor the light clips as
+// it says) than the crowd's median does; and the crowd stays changed. Fails if only the median's
+// gain is tried.
+TEST(LightingModel, ACrowdInALightThatClipsTheFloorKeepsTheLightsGain) {
+  SyntheticScene scene;
+  LightingModel model(scene.background().view(), LightingSettings{});
+  for (int n = 0; n < 3; ++n) throughModel(model, scene.frame(2.0, 0.0, false, 0));
+  ASSERT_NEAR(model.gain(), 2.0, 0.04) << "the light alone";
+  for (int n = 0; n < 20; ++n) {
+    Image crowded = scene.frame(2.0, 0.0, false, 0);
+    for (int v = 0; v < SyntheticScene::kHeight; ++v) {
+      for (int u = 0; u < SyntheticScene::kWidth * 45 / 100; ++u) crowded.at(u, v) = 80;
+    }
+    const Mask changed = throughModel(model, crowded);
+    EXPECT_NEAR(model.gain(), 2.0, 0.04) << "frame " << n;
+    long crowd_changed = 0;
+    for (int v = 0; v < SyntheticScene::kHeight; ++v) {
+      for (int u = 0; u < SyntheticScene::kWidth * 45 / 100; ++u) {
+        crowd_changed += changed.changed(u, v) ? 1 : 0;
+      }
+    }
+    EXPECT_EQ(crowd_changed, SyntheticScene::kHeight * (SyntheticScene::kWidth * 45 / 100))
+        << "frame " << n;
+    if (n == 0) {
+      std::printf("  gain %.3f, %.1f %% of the samples agree (clipped as the light says too)\n",
+                  model.gain(), 100 * model.agreement());
+    }
+  }
+}
+
 // A background pixel is learnt only where the whole tile was unchanged: with a frame the model does
 // not explain, or where something stands, the background stays as it was.
 TEST(LightingModel, NothingIsLearntFromFramesItDoesNotExplain) {

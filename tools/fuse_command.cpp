@@ -94,9 +94,17 @@ Image mapImage(const OccupancyMap& map) {
   return image;
 }
 
+// Where the cells a camera sees clearly and the map does not free lie: under light in part of the
+// room (a lamp, the sun, a shadow: sim::LightPatch), else within kNear of an object's footprint
+// (where 0.3 m columns keep the floor next to objects), else elsewhere.
+struct NotFreed {
+  std::uint64_t in_light = 0, near_objects = 0, elsewhere = 0;
+  static constexpr double kNear = 0.3;
+};
+
 // The maps against the simulator's ground truth, summed over frames; and the same over the maps
 // more than a second after every sudden change of the scene (Scene::eventTimes), with the worst
-// such map's share of clearly seen cells free.
+// such map's share of clearly seen cells free and where its cells not freed lie.
 struct TruthScore {
   std::uint64_t inside_cells = 0, inside_kept = 0;  // cells wholly inside objects, not free
   std::uint64_t clear_cells = 0, clear_free = 0;    // cells a camera sees clearly, free
@@ -104,10 +112,15 @@ struct TruthScore {
   std::uint64_t settled_maps = 0, settled_objects = 0, settled_found = 0;
   double settled_worst_free = 1.0;  // share of the clearly seen cells free
   std::uint64_t settled_worst_map = 0;
+  std::uint64_t settled_worst_clear = 0;
+  NotFreed not_freed, settled_worst_not_freed;
   std::uint64_t maps = 0;
 
-  void add(const OccupancyMap& map, const sim::GroundTruth& truth, bool settled) {
+  void add(const OccupancyMap& map, const sim::GroundTruth& truth,
+           const std::vector<sim::SceneObject>& scene_objects,
+           const std::vector<sim::LightPatch>& patches, bool settled) {
     std::uint64_t clear = 0, free_clear = 0, found = 0;
+    NotFreed here;
     for (std::size_t cell = 0; cell < map.cells.size(); ++cell) {
       const bool free = map.cells[cell] == CellState::kFree;
       if (truth.footprint[cell] == sim::GroundTruth::kInside) {
@@ -116,8 +129,27 @@ struct TruthScore {
       } else if (truth.footprint[cell] == sim::GroundTruth::kClear && truth.clear_view[cell]) {
         ++clear;
         free_clear += free ? 1 : 0;
+        if (!free) {
+          const auto row = static_cast<int>(cell / static_cast<std::size_t>(map.geometry.width));
+          const auto column = static_cast<int>(cell % static_cast<std::size_t>(map.geometry.width));
+          const Eigen::Vector2d centre = map.geometry.cellCentre(row, column);
+          const auto lit = [&](const sim::LightPatch& patch) { return patch.at(centre) != 1.0; };
+          const auto near = [&](const sim::SceneObject& object) {
+            return object.solid.footprintDistance(centre) <= NotFreed::kNear;
+          };
+          if (std::any_of(patches.begin(), patches.end(), lit)) {
+            ++here.in_light;
+          } else if (std::any_of(scene_objects.begin(), scene_objects.end(), near)) {
+            ++here.near_objects;
+          } else {
+            ++here.elsewhere;
+          }
+        }
       }
     }
+    not_freed.in_light += here.in_light;
+    not_freed.near_objects += here.near_objects;
+    not_freed.elsewhere += here.elsewhere;
     for (const std::vector<int>& cells : truth.object_cells) {
       for (const int cell : cells) {
         if (map.cells[static_cast<std::size_t>(cell)] != CellState::kFree) {
@@ -139,6 +171,8 @@ struct TruthScore {
       if (share < settled_worst_free) {
         settled_worst_free = share;
         settled_worst_map = maps;
+        settled_worst_clear = clear;
+        settled_worst_not_freed = here;
       }
     }
     ++maps;
@@ -239,6 +273,8 @@ int run(const FuseOptions& o) {
   std::uint64_t maps = 0;
   std::uint64_t counts[3] = {0, 0, 0};
   TruthScore score;
+  std::vector<sim::SceneObject> objects;  // the scene's at each frame set, for the score
+  std::vector<sim::LightPatch> patches;
   LocalLight::Tally local_light;  // every camera's, every frame's
   while (o.frames == 0 || maps < o.frames) {
     bool ended = false;
@@ -314,7 +350,10 @@ int run(const FuseOptions& o) {
       const bool settled = std::none_of(events.begin(), events.end(), [t](double event) {
         return t >= event && t < event + 1.0;
       });
-      score.add(map, truth_maker->at(cameras.front().sim->scene().objectsAt(t)), settled);
+      const sim::Scene& scene = cameras.front().sim->scene();
+      scene.objectsAt(t, objects);
+      scene.lightPatches(t, patches);
+      score.add(map, truth_maker->at(objects), objects, patches, settled);
     }
     if (!o.snapshot.empty()) {
       last_images.clear();
@@ -369,6 +408,22 @@ int run(const FuseOptions& o) {
           static_cast<unsigned long long>(score.settled_worst_map),
           100.0 * score.settled_worst_free);
     }
+    const auto shares = [](const NotFreed& not_free, std::uint64_t clear) {
+      char text[160];
+      std::snprintf(text, sizeof text,
+                    "%.2f %% under light in part of the room, %.2f %% within %.1f m of an object, "
+                    "%.2f %% elsewhere",
+                    percent(not_free.in_light, clear), percent(not_free.near_objects, clear),
+                    NotFreed::kNear, percent(not_free.elsewhere, clear));
+      return std::string(text);
+    };
+    std::printf("of the cells a camera sees clearly, not free: %s",
+                shares(score.not_freed, score.clear_cells).c_str());
+    if (score.settled_maps < maps) {
+      std::printf("; at the worst map after the events: %s",
+                  shares(score.settled_worst_not_freed, score.settled_worst_clear).c_str());
+    }
+    std::printf("\n");
   }
   if (local_light.changed > 0) printLocalLight(local_light);
   for (std::size_t k = 0; k < cameras.size(); ++k) {

@@ -247,6 +247,27 @@ class RoomLightScene final : public RoomInItsLight {
   }
 };
 
+// The room while its light goes from half to double and back, as steps and as ramps (issue 13's
+// target: a second after each change the map is the constant-light map), against backgrounds
+// taken at 1: 1 until 2 s; a step to 0.5; a step to 2 at 4 s; a ramp down to 0.5 from 6 to 9 s;
+// 0.5; a ramp up to 2 from 11 to 14 s; 2; a step back to 1 at 16 s. At 2 the brighter planks and
+// every wall clip the sensor.
+class RoomGainsScene final : public RoomInItsLight {
+ public:
+  std::string_view name() const override { return "room-gains"; }
+  double lightGain(double t) const override {
+    if (t < 2.0) return 1.0;
+    if (t < 4.0) return 0.5;
+    if (t < 6.0) return 2.0;
+    if (t < 9.0) return 2.0 - 0.5 * (t - 6.0);
+    if (t < 11.0) return 0.5;
+    if (t < 14.0) return 0.5 + 0.5 * (t - 11.0);
+    if (t < 16.0) return 2.0;
+    return 1.0;
+  }
+  std::vector<double> eventTimes() const override { return {2.0, 4.0, 16.0}; }
+};
+
 // The room with light in parts of it, against backgrounds taken without: a patch of sun
 // (x 1.8, sharp-edged, 1 x 0.7 m) crossing the floor at 0.25 m/s all the time; a lamp's soft pool
 // (x 1.6, 1 m radius) switched on from 1 s to 11 s; a soft shade (x 0.6, 1.6 x 1.2 m) from 2 s to
@@ -332,12 +353,15 @@ class RoomDayScene final : public RoomInItsLight {
 std::unique_ptr<Scene> makeScene(std::string_view name) {
   if (name == "room") return std::make_unique<RoomScene>();
   if (name == "room-light") return std::make_unique<RoomLightScene>();
+  if (name == "room-gains") return std::make_unique<RoomGainsScene>();
   if (name == "room-lamps") return std::make_unique<RoomLampsScene>();
   if (name == "room-knock") return std::make_unique<RoomKnockScene>();
   if (name == "room-day") return std::make_unique<RoomDayScene>();
   return nullptr;
 }
 
-std::vector<std::string> sceneNames() { return {"room", "room-light", "room-lamps", "room-knock", "room-day"}; }
+std::vector<std::string> sceneNames() {
+  return {"room", "room-light", "room-gains", "room-lamps", "room-knock", "room-day"};
+}
 
 }  // namespace occmap::sim

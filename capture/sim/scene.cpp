@@ -14,6 +14,11 @@ bool Solid::footprintContains(const Eigen::Vector2d& p) const {
   return d.x() <= half_size.x() && d.y() <= half_size.y();
 }
 
+double Solid::footprintDistance(const Eigen::Vector2d& p) const {
+  if (shape == Shape::kCylinder) return std::max(0.0, (p - centre).norm() - radius());
+  return ((p - centre).cwiseAbs() - half_size).cwiseMax(0.0).norm();
+}
+
 bool Solid::footprintOverlaps(const Eigen::Vector2d& min, const Eigen::Vector2d& max) const {
   if (shape == Shape::kCylinder) {
     const Eigen::Vector2d nearest = centre.cwiseMax(min).cwiseMin(max);

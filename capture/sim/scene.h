@@ -33,6 +33,8 @@ struct Solid {
   // Whether the footprint overlaps / contains the axis-aligned square [min, max].
   bool footprintOverlaps(const Eigen::Vector2d& min, const Eigen::Vector2d& max) const;
   bool footprintCovers(const Eigen::Vector2d& min, const Eigen::Vector2d& max) const;
+  // How far the floor point lies outside the footprint (0 inside).
+  double footprintDistance(const Eigen::Vector2d& p) const;
   // Where origin + t direction first enters the solid for t in (t_min, t_max), with the outward
   // normal.
   struct Hit {
@@ -146,7 +148,8 @@ class Scene {
 };
 
 // Built-in scenes by name ("room": the paper's set-up; "room-light": the same room and people while
-// its light steps and ramps; "room-lamps": light in parts of it; "room-knock": camera c1 turned by
+// its light steps and ramps; "room-gains": the light stepped and ramped between half and double;
+// "room-lamps": light in parts of it; "room-knock": camera c1 turned by
 // 1 degree at 1 s; "room-day": ten minutes of light, lamps, sun, shadows, a box left, a person
 // standing still and a knock; docs/lighting.md). Empty for an unknown name.
 std::unique_ptr<Scene> makeScene(std::string_view name);
