@@ -145,8 +145,10 @@ std::size_t LocalLight::explain(ImageView frame, ImageView background, ImageView
     const auto [count, sum_b, sum_bb, sum_lb, sum_ll] =
         lighting_steps::tileSums(frame.row(v0) + u0, frame.stride, background.row(v0) + u0,
                                  background.stride, u1 - u0, v1 - v0, saturated);
-    // At least half of the tile measured.
-    if (sum_bb == 0 || 2 * count < static_cast<std::uint32_t>((u1 - u0) * (v1 - v0))) {
+    // At least a quarter of the tile measured (16 pixels): the rest clipped, which the pixel
+    // test below holds to where the gain says the sensor clips. Half, as it was, left a patch of
+    // sun that clips the brighter boards changed wherever the darker ones were few.
+    if (sum_bb == 0 || 4 * count < static_cast<std::uint32_t>((u1 - u0) * (v1 - v0))) {
       ++tally_.clipped;
       continue;
     }

@@ -61,7 +61,7 @@ class LocalLight {
     std::uint64_t as_captured = 0;   // cleared: the background as captured
     std::uint64_t seeds = 0;         // cleared: textured, one gain
     std::uint64_t reached = 0;       // cleared: a seed's gain carried to them
-    std::uint64_t clipped = 0;       // no seed: less than half of the tile measured
+    std::uint64_t clipped = 0;       // no seed: less than a quarter of the tile measured
     std::uint64_t out_of_range = 0;  // no seed: its gain beyond a fifth to five times
     std::uint64_t flat = 0;          // no seed: too little texture to tell
     std::uint64_t misfit = 0;        // no seed: no one gain fits

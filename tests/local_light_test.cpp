@@ -294,6 +294,49 @@ TEST(LocalLight, AfterALearntLampGoesOutTheFloorIsAtOnceAsCaptured) {
   EXPECT_EQ(learnt_then_unchanged, learnt_tiles);
 }
 
+// A patch of sun bright enough to clip the brighter boards (x 2.2 on boards of 100 to 150 grey
+// levels, clipped from 114 up): most of its tiles are more than half clipped. A tile with a
+// quarter of its pixels measured is a seed when those pass the seed's tests and the clipped ones
+// are where the gain says the sensor clips; so the patch is seen through where some of it is
+// measured, and a box in the patch (not lit, and not clipped) stays changed in every frame. Fails
+// if a seed needs half of its tile measured.
+TEST(LocalLight, ASunThatClipsTheBrighterBoardsIsSeenThroughWhereSomeOfItIsMeasured) {
+  const Image floor = plankFloor(31);
+  const std::vector<Patch> sun = {{false, 80, 60, 50, 40, 0, 2.2}};
+  const Box box{64, 48, 96, 72, 70, 0};
+  std::mt19937 random(17);
+  LightingModel model(floor.view(), LightingSettings{});
+  long sun_tiles = 0;
+  long mostly_clipped = 0;
+  long seen_through = 0;
+  for (int n = 0; n < 30; ++n) {
+    const Image live = frame(floor, sun, {box}, random);
+    const Tiles tiles = throughModel(model, live);
+    for (int tv = 0; tv < kHeight / 8; ++tv) {
+      for (int tu = 0; tu < kWidth / 8; ++tu) {
+        if (tileInside(box, tu, tv)) {
+          ASSERT_TRUE(tiles.tileChanged(tu, tv))
+              << "frame " << n << ": the box's tile " << tu << ", " << tv << " was cleared";
+        }
+        if (n > 0 || !plainLitTile(sun, {box}, tu, tv)) continue;
+        ++sun_tiles;
+        int clipped = 0;
+        for (int v = tv * 8; v < tv * 8 + 8; ++v) {
+          for (int u = tu * 8; u < tu * 8 + 8; ++u) clipped += live.at(u, v) >= 250 ? 1 : 0;
+        }
+        mostly_clipped += clipped > 32 ? 1 : 0;
+        seen_through += tiles.tileChanged(tu, tv) ? 0 : 1;
+      }
+    }
+  }
+  std::printf("  %ld tiles in the sun, %ld of them more than half clipped; %ld seen through\n",
+              sun_tiles, mostly_clipped, seen_through);
+  ASSERT_GT(mostly_clipped, sun_tiles / 2)
+      << "the sun should clip most tiles, or this tests nothing";
+  // 77 of 78 measured; 70 when a seed needed half of its tile measured.
+  EXPECT_GE(static_cast<double>(seen_through) / static_cast<double>(sun_tiles), 0.95);
+}
+
 // What the local light clears is explained anew every frame, never learnt by the drift. A lamp
 // switched on at once stays changed against the background for as long as it is on (its tiles
 // cleared each frame by their texture), and a flat box at the pool's edge as bright as the floor
