@@ -59,6 +59,36 @@ std::string withLighting(const std::string& text, const std::string& lighting) {
   return out;
 }
 
+// The number in `out` that follows the last `before` ahead of the first `label` (as in "...; 98.6
+// % of cells ...": before "; ", label " % of cells"), or -1 when `label` is not there.
+double numberAhead(const std::string& out, const std::string& label, const std::string& before) {
+  const std::size_t at = out.find(label);
+  if (at == std::string::npos) return -1.0;
+  const std::size_t start = out.rfind(before, at);
+  return start == std::string::npos ? -1.0 : std::atof(out.c_str() + start + before.size());
+}
+
+// That `occmap fuse`'s output `out` says camera c1 was left out of `left_out` frames and found
+// moved at map `moved_at`, turned by about a degree, re-posed at map `reposed_at` by about as much,
+// and that no other camera was ever left out.
+void expectOnlyC1KnockedAndRePosed(const std::string& out, int left_out, int moved_at,
+                                   int reposed_at) {
+  const std::string moved = "camera c1: " + std::to_string(left_out) +
+                            " frames left out, no change of light explaining them; its view moved "
+                            "at map " +
+                            std::to_string(moved_at) + ": turned ";
+  const std::size_t at = out.find(moved);
+  ASSERT_NE(at, std::string::npos) << out;
+  EXPECT_NEAR(std::atof(out.c_str() + at + moved.size()), 1.0, 0.1) << out;
+  const std::string reposed = "; re-posed at map " + std::to_string(reposed_at) + " (turned ";
+  const std::size_t reposed_at_text = out.find(reposed);
+  ASSERT_NE(reposed_at_text, std::string::npos) << out;
+  EXPECT_NEAR(std::atof(out.c_str() + reposed_at_text + reposed.size()), 1.0, 0.05) << out;
+  for (const char* steady : {"camera c0:", "camera c2:", "camera c3:"}) {
+    EXPECT_EQ(out.find(steady), std::string::npos) << out;
+  }
+}
+
 // The simulated room while its light steps and ramps (sim://room-light: 1, 0.6, 0.6 -> 1.5, 1.5
 // in four seconds) against backgrounds taken at 1: with the light's model (the default) the map
 // is what it is in constant light; with `lighting: {adapt: false}` (the paper's fixed background)
@@ -210,19 +240,7 @@ TEST(OccmapFuse, AKnockedCameraIsLeftOutThenRePosedAndItsMapsAreTheUnknockedRoom
       << result.out;
   EXPECT_NE(result.out.find("100.00 % of cells under objects not free"), std::string::npos)
       << result.out;
-  const std::string moved =
-      "camera c1: 21 frames left out, no change of light explaining them; "
-      "its view moved at map 10: turned ";
-  const std::size_t at = result.out.find(moved);
-  ASSERT_NE(at, std::string::npos) << result.out;
-  EXPECT_NEAR(std::atof(result.out.c_str() + at + moved.size()), 1.0, 0.1) << result.out;
-  const std::string reposed = "; re-posed at map 30 (turned ";
-  const std::size_t reposed_at = result.out.find(reposed);
-  ASSERT_NE(reposed_at, std::string::npos) << result.out;
-  EXPECT_NEAR(std::atof(result.out.c_str() + reposed_at + reposed.size()), 1.0, 0.05) << result.out;
-  for (const char* steady : {"camera c0:", "camera c2:", "camera c3:"}) {
-    EXPECT_EQ(result.out.find(steady), std::string::npos) << result.out;
-  }
+  expectOnlyC1KnockedAndRePosed(result.out, 21, 10, 30);
   // The maps once it is back, against the unknocked room's.
   for (int n = 31; n < kFrames; n += 2) {
     char name[32];
@@ -281,35 +299,16 @@ TEST(OccmapFuse, ADayInTheRoomFindsEveryObjectAndRePosesTheKnockedCamera) {
     ASSERT_EQ(result.exit_code, 0) << result.err;
     std::printf("%s\n%s", run.name, result.out.c_str());
     EXPECT_NE(result.out.find("wrote 120 maps"), std::string::npos) << result.out;
-    const std::string kept = " % of cells under objects not free";
-    const std::size_t kept_at = result.out.find(kept);
-    ASSERT_NE(kept_at, std::string::npos) << result.out;
-    EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind(": ", kept_at) + 2),
+    EXPECT_GE(numberAhead(result.out, " % of cells under objects not free", ": "),
               run.least_inside_kept)
         << result.out;
     EXPECT_NE(result.out.find("objects found 756 of 756 (100.00 %)"), std::string::npos)
         << result.out;
-    const std::string moved =
-        "camera c1: 2 frames left out, no change of light explaining them; "
-        "its view moved at map 90: turned ";
-    const std::size_t at = result.out.find(moved);
-    ASSERT_NE(at, std::string::npos) << result.out;
-    EXPECT_NEAR(std::atof(result.out.c_str() + at + moved.size()), 1.0, 0.1) << result.out;
-    EXPECT_NE(result.out.find("; re-posed at map 91 (turned "), std::string::npos) << result.out;
-    for (const char* steady : {"camera c0:", "camera c2:", "camera c3:"}) {
-      EXPECT_EQ(result.out.find(steady), std::string::npos) << result.out;
-    }
-    const std::string label = "% of cells a camera sees clearly are free";
-    const std::size_t free_at = result.out.find(label);
-    ASSERT_NE(free_at, std::string::npos) << result.out;
-    EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind("; ", free_at) + 2), run.least_free)
+    expectOnlyC1KnockedAndRePosed(result.out, 2, 90, 91);
+    EXPECT_GE(numberAhead(result.out, "% of cells a camera sees clearly are free", "; "),
+              run.least_free)
         << result.out;
-    const std::string worst = "clearly free";
-    const std::size_t worst_at = result.out.find(worst);
-    ASSERT_NE(worst_at, std::string::npos) << result.out;
-    EXPECT_GE(std::atof(result.out.c_str() + result.out.rfind(" has ", worst_at) + 5),
-              run.least_worst_free)
-        << result.out;
+    EXPECT_GE(numberAhead(result.out, "clearly free", " has "), run.least_worst_free) << result.out;
   }
 }
 
