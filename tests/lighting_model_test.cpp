@@ -144,7 +144,7 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
   std::uniform_int_distribution<int> inverse(16384, 262144);  // gains from 4 to 1/4
   std::uniform_int_distribution<int> alpha(1, 32768);
   std::size_t rows = 0, moved_pixels = 0, agreeing = 0, disagreeing_total = 0, unusable = 0,
-              tile_sums = 0, correlations = 0;
+              tile_sums = 0, correlations = 0, clipped = 0;
   for (const std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
     SCOPED_TRACE(hwy::TargetName(target));
     hwy::SetSupportedTargetsForTest(target);
@@ -206,12 +206,14 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
           samples.data(), samples.size(), static_cast<float>(gain), 8.0f, usable);
       ASSERT_EQ(sums.usable, expected.usable) << "width " << width;
       ASSERT_EQ(sums.agreeing, expected.agreeing) << "width " << width;
+      ASSERT_EQ(sums.clipped, expected.clipped) << "width " << width;
       ASSERT_EQ(sums.sum_lb, expected.sum_lb) << "width " << width;
       ASSERT_EQ(sums.sum_bb, expected.sum_bb) << "width " << width;
       ASSERT_EQ(sums.sum_ll, expected.sum_ll) << "width " << width;
       agreeing += sums.agreeing;
       disagreeing_total += sums.usable - sums.agreeing;
       unusable += samples.size() - sums.usable;
+      clipped += sums.clipped;
       // A tile's sums for the local light, whole tiles and ones cut by the image's edge: the live
       // row and the divided one read as two small images (rows 1 and 2 bytes apart).
       if (width >= 24) {
@@ -251,6 +253,7 @@ TEST(LightingSteps, EverySimdTargetGivesTheScalarBytes) {
   EXPECT_GT(agreeing, 1000u);
   EXPECT_GT(disagreeing_total, 1000u);
   EXPECT_GT(unusable, 1000u) << "the samples should include some too dark, too bright or clipped";
+  EXPECT_GT(clipped, 100u) << "some samples should be clipped as the gain says";
   EXPECT_GT(tile_sums, 100u);
   EXPECT_GT(correlations, 60u);
 }
