@@ -541,6 +541,9 @@ void printSummary(const std::map<std::string, double>& rates) {
            {"simd_target", fusionSimdTarget()},
            {"maps_per_s", rounded(maps, 1)},
            {"lit_maps_per_s", rounded(rate(config + "/" + mode_name + "/kernel_lit/cold"), 1)},
+           // 0 where not run (the large rig has no dimmer case).
+           {"lit_dim_maps_per_s",
+            rounded(rate(config + "/" + mode_name + "/kernel_lit_dim/cold"), 1)},
            {"paper_loop_maps_per_s", rounded(rate(config + "/paper_loop/cold"), 1)},
            {"memory_bound_maps_per_s", rounded(rate(config + "/memory_bound/cold"), 1)}});
     }
