@@ -150,10 +150,12 @@ void LightingModel::estimateGain(ImageView live) {
   // their ratio is the least noisy).
   // The band widens with a brighter light: the background's rounding and a camera gain's noise
   // grow with it.
+  const auto band = [&](double gain) {
+    return static_cast<float>(settings_.agreement_grey_levels * std::max(1.0, gain));
+  };
   const auto judge = [&](double gain) {
-    return lighting_steps::agreement(
-        samples_.data(), samples_.size(), static_cast<float>(gain),
-        static_cast<float>(settings_.agreement_grey_levels * std::max(1.0, gain)), kUsable);
+    return lighting_steps::agreement(samples_.data(), samples_.size(), static_cast<float>(gain),
+                                     band(gain), kUsable);
   };
   // What the light clips as it says agrees too: in a light that clips most of the view, what is
   // left usable is mostly what stands in it.
@@ -176,7 +178,7 @@ void LightingModel::estimateGain(ImageView live) {
     }
   }
   agreement_gain_ = static_cast<float>(judged_by);
-  agreement_band_ = static_cast<float>(settings_.agreement_grey_levels * std::max(1.0, judged_by));
+  agreement_band_ = band(judged_by);
   usable_ = sums.usable;
   if (usable_ < kFewestSamples) {
     agreement_ = 0.0;
@@ -292,6 +294,7 @@ void LightingModel::follow(ImageView live, const std::uint8_t* changed_tiles) {
   const std::size_t first = band * down / kBands;
   const std::size_t last = (band + 1) * down / kBands;
   std::uint8_t* quiet = quiet_row_.data();
+  const LocalLight* lit = local_ran_ ? &*local_ : nullptr;  // its tiles cleared as light
   for (std::size_t tile_row = first; tile_row < last; ++tile_row) {
     // 1 for every pixel of a wholly unchanged tile: only there is anything learnt. Not where the
     // local light cleared the tile as light in part of the view: that light is explained anew
@@ -300,7 +303,6 @@ void LightingModel::follow(ImageView live, const std::uint8_t* changed_tiles) {
     // a seed's gain reaches, stayed changed for good (measured: a lamp's pool left as a
     // patchwork of learnt and changed tiles, docs/lighting.md); and an object as bright as the
     // light next to it, whose outer tiles the light's reach clears, would be learnt.
-    const LocalLight* lit = local_ran_ ? &*local_ : nullptr;
     bool any = false;
     for (std::size_t tile = 0; tile < across; ++tile) {
       const std::size_t index = tile_row * across + tile;

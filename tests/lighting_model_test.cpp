@@ -519,21 +519,19 @@ TEST(LightingModel, ACrowdInALightThatClipsTheFloorKeepsTheLightsGain) {
   LightingModel model(scene.background().view(), LightingSettings{});
   for (int n = 0; n < 3; ++n) throughModel(model, scene.frame(2.0, 0.0, false, 0));
   ASSERT_NEAR(model.gain(), 2.0, 0.04) << "the light alone";
+  constexpr int kCrowdWidth = SyntheticScene::kWidth * 45 / 100;  // columns [0, kCrowdWidth)
   for (int n = 0; n < 20; ++n) {
     Image crowded = scene.frame(2.0, 0.0, false, 0);
     for (int v = 0; v < SyntheticScene::kHeight; ++v) {
-      for (int u = 0; u < SyntheticScene::kWidth * 45 / 100; ++u) crowded.at(u, v) = 80;
+      for (int u = 0; u < kCrowdWidth; ++u) crowded.at(u, v) = 80;
     }
     const Mask changed = throughModel(model, crowded);
     EXPECT_NEAR(model.gain(), 2.0, 0.04) << "frame " << n;
     long crowd_changed = 0;
     for (int v = 0; v < SyntheticScene::kHeight; ++v) {
-      for (int u = 0; u < SyntheticScene::kWidth * 45 / 100; ++u) {
-        crowd_changed += changed.changed(u, v) ? 1 : 0;
-      }
+      for (int u = 0; u < kCrowdWidth; ++u) crowd_changed += changed.changed(u, v) ? 1 : 0;
     }
-    EXPECT_EQ(crowd_changed, SyntheticScene::kHeight * (SyntheticScene::kWidth * 45 / 100))
-        << "frame " << n;
+    EXPECT_EQ(crowd_changed, SyntheticScene::kHeight * kCrowdWidth) << "frame " << n;
     if (n == 0) {
       std::printf("  gain %.3f, %.1f %% of the samples agree (clipped as the light says too)\n",
                   model.gain(), 100 * model.agreement());

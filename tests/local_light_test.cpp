@@ -115,11 +115,13 @@ struct Tiles {
   }
 };
 
-// One frame as a capture thread runs it (core/changed_pixels.h).
-Tiles throughModel(LightingModel& model, const Image& live) {
+// One frame as a capture thread runs it (core/changed_pixels.h); `difference`, if given, gets the
+// tiles the difference found changed, before the local light.
+Tiles throughModel(LightingModel& model, const Image& live, Tiles* difference = nullptr) {
   Tiles tiles;
   const ImageView corrected = model.correct(live.view());
   markChangedPixels(corrected, model.background(), kThreshold, tiles.bytes.data());
+  if (difference != nullptr) *difference = tiles;
   model.explainLocally(corrected, kThreshold, tiles.bytes.data());
   model.follow(live.view(), tiles.bytes.data());
   return tiles;
@@ -370,11 +372,7 @@ TEST(LocalLight, WhatTheLocalLightClearsIsNeverLearnt) {
   for (int n = 0; n < 3000; ++n) {
     const Image live = withBox(frame(floor, {lamp}, {}, random), random);
     Tiles before;
-    const ImageView corrected = model.correct(live.view());
-    markChangedPixels(corrected, model.background(), kThreshold, before.bytes.data());
-    Tiles after = before;
-    model.explainLocally(corrected, kThreshold, after.bytes.data());
-    model.follow(live.view(), after.bytes.data());
+    const Tiles after = throughModel(model, live, &before);
     if (n < 2900) continue;
     for (int tv = 0; tv < kHeight / 8; ++tv) {
       for (int tu = 0; tu < kWidth / 8; ++tu) {

@@ -100,6 +100,12 @@ Image mapImage(const OccupancyMap& map) {
 struct NotFreed {
   std::uint64_t in_light = 0, near_objects = 0, elsewhere = 0;
   static constexpr double kNear = 0.3;
+  NotFreed& operator+=(const NotFreed& more) {
+    in_light += more.in_light;
+    near_objects += more.near_objects;
+    elsewhere += more.elsewhere;
+    return *this;
+  }
 };
 
 // The maps against the simulator's ground truth, summed over frames; and the same over the maps
@@ -147,9 +153,7 @@ struct TruthScore {
         }
       }
     }
-    not_freed.in_light += here.in_light;
-    not_freed.near_objects += here.near_objects;
-    not_freed.elsewhere += here.elsewhere;
+    not_freed += here;
     for (const std::vector<int>& cells : truth.object_cells) {
       for (const int cell : cells) {
         if (map.cells[static_cast<std::size_t>(cell)] != CellState::kFree) {
