@@ -508,6 +508,28 @@ TEST(LightingModel, WhatNoGainExplainsIsSaidAndNothingIsLearnt) {
   }
 }
 
+// Twice the light on a floor of 100 to 170 grey levels clips half of it, and a crowd stands over
+// a quarter of the view: of the samples left usable, the crowd's are 40 %, so under 70 % agree
+// with the light. The floor the light clips as it says agrees too, so the view is still
+// explained, as the same crowd is in the background's own light. Fails if clipped samples are
+// left out of the share that agrees.
+TEST(LightingModel, ACrowdInALightThatClipsTheFloorIsStillExplained) {
+  SyntheticScene scene;
+  constexpr int kCrowdWidth = SyntheticScene::kWidth / 4;  // columns [0, kCrowdWidth)
+  for (const double gain : {1.0, 2.0}) {
+    LightingModel model(scene.background().view(), LightingSettings{});
+    Image crowded = scene.frame(gain, 0.0, false, 0);
+    for (int v = 0; v < SyntheticScene::kHeight; ++v) {
+      for (int u = 0; u < kCrowdWidth; ++u) crowded.at(u, v) = 40;
+    }
+    throughModel(model, crowded);
+    std::printf("  light %.0f x: gain %.3f, %.1f %% of the samples agree\n", gain, model.gain(),
+                100 * model.agreement());
+    EXPECT_NEAR(model.gain(), gain, 0.04 * gain);
+    EXPECT_TRUE(model.explained()) << "light " << gain << ", agreement " << model.agreement();
+  }
+}
+
 // A light that clips half of the floor (twice the light on a floor of 100 to 170 grey levels) and
 // a crowd over 45 % of the view: what is left usable is mostly the crowd, whose median ratio is
 // its own (about a third), not the light's. The light's gain is kept all the same, since the last
