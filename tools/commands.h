@@ -18,5 +18,7 @@ Command addViewCommand(CLI::App& app);
 Command addStatusCommand(CLI::App& app);
 Command addControlCommand(CLI::App& app);
 Command addRecordCommand(CLI::App& app);
+Command addScoreCommand(CLI::App& app);
+Command addTruthCommand(CLI::App& app);
 
 }  // namespace occmap::tools

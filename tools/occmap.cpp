@@ -32,6 +32,8 @@ int main(int argc, char** argv) {
   add(tools::addStatusCommand, "status");
   add(tools::addControlCommand, "control");
   add(tools::addRecordCommand, "record");
+  add(tools::addScoreCommand, "score");
+  add(tools::addTruthCommand, "truth");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

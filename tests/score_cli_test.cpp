@@ -1,0 +1,151 @@
+// `occmap score` and `occmap truth` as a user runs them (docs/detection.md): the CLEAR MOD measures
+// of a hand-worked case, every kind of bad file named by file, line and column, and EPFL's ground
+// truth converted and scored against itself and against itself moved.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "command_runner.h"
+#include "temporary_folder.h"
+
+namespace occmap {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::runCommand;
+using testing::TemporaryFolder;
+const std::string kOccmap = OCCMAP_BINARY_DIR "/tools/occmap";
+const fs::path kData = OCCMAP_SHARED_DATA;
+
+nlohmann::json scoreJson(const std::vector<std::string>& extra) {
+  std::vector<std::string> arguments = {kOccmap, "score", "--json"};
+  arguments.insert(arguments.end(), extra.begin(), extra.end());
+  const testing::CommandResult result = runCommand(arguments);
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  return nlohmann::json::parse(result.out);
+}
+
+TEST(ScoreCommand, ScoresAHandWorkedCaseAsCLEARMODDoes) {
+  TemporaryFolder folder;
+  // Frame 0: two people, found 0.1 m and 0.3 m away, and a detection 2 m from anyone. Frame 1:
+  // one person, not found. Frame 2: nobody in the truth, one detection. Frame 7: a detection.
+  // Columns in another order and more of them, as occmap detect writes them.
+  const fs::path truth = folder.write("truth.csv",
+                                      "frame,x_m,y_m,id\n"
+                                      "0,0,0,1\n"
+                                      "0,3,0,2\r\n"
+                                      "\n"
+                                      "1,1,1,1\n");
+  const fs::path found = folder.write("found.csv",
+                                      "x_m,frame,y_m,area_m2,score\n"
+                                      "0.1,0,0,0.2,0.9\n"
+                                      "3.0,0,0.3,0.2,0.8\n"
+                                      "6.0,0,0,0.2,0.7\n"
+                                      "1,2,1,0.2,0.9\n"
+                                      "1,7,1,0.2,0.9\n");
+  // Only the frames the truth names: 0 and 1.
+  nlohmann::json s = scoreJson({"--truth", truth.string(), "--detections", found.string()});
+  EXPECT_EQ(s["frames"], 2);
+  EXPECT_EQ(s["people"], 3);
+  EXPECT_EQ(s["detections"], 3);
+  EXPECT_EQ(s["pairs"], 2);
+  EXPECT_EQ(s["detections_outside_scored_frames"], 2);
+  EXPECT_NEAR(s["moda"].get<double>(), 1.0 - 2.0 / 3.0, 1e-9);
+  EXPECT_NEAR(s["modp"].get<double>(), (0.8 + 0.4) / 2.0, 1e-9);
+  EXPECT_NEAR(s["precision"].get<double>(), 2.0 / 3.0, 1e-9);
+  EXPECT_NEAR(s["recall"].get<double>(), 2.0 / 3.0, 1e-9);
+  // Frames 0 to 4 all scored: frame 2's detection is a false positive, frame 7's is left out.
+  s = scoreJson({"--truth", truth.string(), "--detections", found.string(), "--frames", "5"});
+  EXPECT_EQ(s["frames"], 5);
+  EXPECT_EQ(s["false_positives"], 2);
+  EXPECT_EQ(s["detections_outside_scored_frames"], 1);
+  EXPECT_NEAR(s["moda"].get<double>(), 1.0 - 3.0 / 3.0, 1e-9);
+  // A gate of 0.2 m loses the pair 0.3 m apart.
+  s = scoreJson({"--truth", truth.string(), "--detections", found.string(), "--gate-m", "0.2"});
+  EXPECT_EQ(s["pairs"], 1);
+  EXPECT_NEAR(s["modp"].get<double>(), 0.5, 1e-9);
+  // The table for people says the same.
+  const testing::CommandResult table =
+      runCommand({kOccmap, "score", "--truth", truth.string(), "--detections", found.string()});
+  EXPECT_EQ(table.exit_code, 0);
+  EXPECT_NE(table.out.find("MODA         33.33 %"), std::string::npos) << table.out;
+  EXPECT_NE(table.out.find("2 detections in 2 frames that the truth does not name"),
+            std::string::npos)
+      << table.out;
+}
+
+TEST(ScoreCommand, NamesTheFileLineAndColumnOfEveryBadInput) {
+  TemporaryFolder folder;
+  const fs::path truth = folder.write("truth.csv", "frame,x_m,y_m\n0,0,0\n");
+  struct Case {
+    std::string text;
+    std::string expected;  // in the message
+  };
+  const Case cases[] = {
+      {"frame,x_m\n0,1\n", "found.csv:1: y_m: the header has no column 'y_m'"},
+      {"frame,x_m,y_m\n0,1,1\n0,1\n", "found.csv:3: 2 columns where the header names 3"},
+      {"frame,x_m,y_m\n0,1,zz\n", "found.csv:2: y_m: 'zz' is not a number"},
+      {"frame,x_m,y_m\n0,nan,1\n", "found.csv:2: x_m: must be finite"},
+      {"frame,x_m,y_m\n-1,1,1\n", "found.csv:2: frame: frame -1 is not a frame set's index"},
+      {"frame,x_m,y_m\n0.5,1,1\n", "found.csv:2: frame: '0.5' is not a whole number"},
+      {"", "found.csv: is empty; a detections file starts with a header line"},
+  };
+  for (const Case& c : cases) {
+    const fs::path found = folder.write("found.csv", c.text);
+    const testing::CommandResult result =
+        runCommand({kOccmap, "score", "--truth", truth.string(), "--detections", found.string()});
+    EXPECT_EQ(result.exit_code, 2) << c.text;
+    EXPECT_NE(result.err.find(c.expected), std::string::npos) << "for\n"
+                                                              << c.text << "\nsaid: " << result.err;
+  }
+  const testing::CommandResult missing =
+      runCommand({kOccmap, "score", "--truth", (folder / "none.csv").string(), "--detections",
+                  truth.string()});
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("none.csv: cannot read truth file"), std::string::npos) << missing.err;
+  const fs::path epfl = folder.write("gt.txt", "0 25 100 200\n1 50 300\n");
+  const testing::CommandResult short_line =
+      runCommand({kOccmap, "truth", "--epfl", epfl.string(), "--out", (folder / "t.csv").string()});
+  EXPECT_EQ(short_line.exit_code, 2);
+  EXPECT_NE(short_line.err.find("gt.txt:2: 3 fields"), std::string::npos) << short_line.err;
+}
+
+TEST(ScoreCommand, EpflsGroundTruthConvertsAndScoresAgainstItself) {
+  const fs::path gt = kData / "epfl-terrace-crowd" / "gt.txt";
+  if (!fs::exists(gt)) GTEST_SKIP() << "EPFL Terrace crowd data not found at " << gt.string();
+  TemporaryFolder folder;
+  const fs::path truth = folder / "truth.csv";
+  const testing::CommandResult converted =
+      runCommand({kOccmap, "truth", "--epfl", gt.string(), "--out", truth.string()});
+  ASSERT_EQ(converted.exit_code, 0) << converted.err;
+  EXPECT_NE(converted.out.find("482 people in frames 0 to 93"), std::string::npos) << converted.out;
+  nlohmann::json s = scoreJson({"--truth", truth.string(), "--detections", truth.string()});
+  EXPECT_EQ(s["frames"], 94);
+  EXPECT_EQ(s["people"], 482);
+  EXPECT_DOUBLE_EQ(s["moda"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(s["modp"].get<double>(), 1.0);
+  // Everyone moved 0.3 m along x: every person is still paired with their own moved self (the
+  // assignment is one to one, and no other pairing is as short in total), MODP 1 - 0.3 / 0.5.
+  std::ifstream in(truth);
+  std::ofstream out(folder / "moved.csv");
+  std::string line;
+  std::getline(in, line);
+  out << line << "\n";
+  while (std::getline(in, line)) {
+    const std::size_t a = line.find(','), b = line.find(',', a + 1);
+    out << line.substr(0, a) << "," << std::stod(line.substr(a + 1, b - a - 1)) + 0.3
+        << line.substr(b) << "\n";
+  }
+  out.close();
+  s = scoreJson({"--truth", truth.string(), "--detections", (folder / "moved.csv").string()});
+  EXPECT_EQ(s["pairs"], 482);
+  EXPECT_NEAR(s["modp"].get<double>(), 0.4, 1e-6);
+  EXPECT_NEAR(s["mean_distance_m"].get<double>(), 0.3, 1e-6);
+}
+
+}  // namespace
+}  // namespace occmap

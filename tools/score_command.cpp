@@ -1,0 +1,179 @@
+// occmap score: detections on the floor against the truth, in the CLEAR MOD measures that
+// multi-camera people detection is compared by (WILDTRACK, MVDet). occmap truth: the ground truth
+// of EPFL's data sets as the truth file occmap score reads.
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "config/exit_codes.h"
+#include "config/floor_points_file.h"
+#include "config/input_error.h"
+#include "core/detection_score.h"
+#include "tools/commands.h"
+
+namespace occmap::tools {
+namespace {
+
+struct ScoreOptions {
+  std::string truth;
+  std::string detections;
+  double gate_m = 0.5;
+  std::optional<std::int64_t> frames;
+  bool json = false;
+};
+
+using Frames = std::map<std::int64_t, std::vector<FloorPoint>>;
+
+Frames byFrame(const std::vector<FloorPointRow>& rows) {
+  Frames frames;
+  for (const FloorPointRow& row : rows) frames[row.frame].push_back(row.point);
+  return frames;
+}
+
+int runScore(const ScoreOptions& o) {
+  const Frames truth = byFrame(readFloorPointsCsv(o.truth, "truth"));
+  const Frames found = byFrame(readFloorPointsCsv(o.detections, "detections"));
+  // The frames scored: those the truth names, and with --frames every frame from 0 (a frame
+  // without truth rows then has nobody in it).
+  std::set<std::int64_t> scored;
+  for (const auto& [frame, points] : truth) scored.insert(frame);
+  if (o.frames) {
+    for (std::int64_t frame = 0; frame < *o.frames; ++frame) scored.insert(frame);
+  }
+  if (scored.empty()) {
+    throw InputError(o.truth, 0, "", "has no rows and --frames was not given: nothing to score");
+  }
+  DetectionScorer scorer(o.gate_m);
+  const std::vector<FloorPoint> none;
+  for (const std::int64_t frame : scored) {
+    const auto t = truth.find(frame);
+    const auto d = found.find(frame);
+    scorer.addFrame(t == truth.end() ? none : t->second, d == found.end() ? none : d->second);
+  }
+  std::size_t left_out = 0;  // detections in frames not scored: said, never silently dropped
+  std::size_t left_out_frames = 0;
+  for (const auto& [frame, points] : found) {
+    if (scored.count(frame) != 0) continue;
+    left_out += points.size();
+    ++left_out_frames;
+  }
+  const DetectionScore& s = scorer.score();
+  if (o.json) {
+    const nlohmann::json out = {
+        {"frames", s.frames},
+        {"people", s.people},
+        {"detections", s.detections},
+        {"pairs", s.pairs},
+        {"misses", s.misses()},
+        {"false_positives", s.falsePositives()},
+        {"moda", s.moda()},
+        {"modp", s.modp()},
+        {"precision", s.precision()},
+        {"recall", s.recall()},
+        {"mean_distance_m", s.pairs == 0 ? 0.0 : s.distance_m / static_cast<double>(s.pairs)},
+        {"gate_m", o.gate_m},
+        {"detections_outside_scored_frames", left_out}};
+    std::printf("%s\n", out.dump().c_str());
+    return kExitOk;
+  }
+  std::printf("scored %zu frames: %zu people, %zu detections, %zu paired within %.2f m\n", s.frames,
+              s.people, s.detections, s.pairs, o.gate_m);
+  std::printf("MODA       %7.2f %%   (misses %zu, false positives %zu)\n", 100.0 * s.moda(),
+              s.misses(), s.falsePositives());
+  std::printf("MODP       %7.2f %%   (mean distance of a pair %.3f m)\n", 100.0 * s.modp(),
+              s.pairs == 0 ? 0.0 : s.distance_m / static_cast<double>(s.pairs));
+  std::printf("precision  %7.2f %%\nrecall     %7.2f %%\n", 100.0 * s.precision(),
+              100.0 * s.recall());
+  if (left_out > 0) {
+    std::printf(
+        "note: %zu detections in %zu frames that the truth does not name were not scored; "
+        "--frames N scores frames 0 to N-1, a frame without truth rows as one with nobody in it\n",
+        left_out, left_out_frames);
+  }
+  return kExitOk;
+}
+
+struct TruthOptions {
+  std::string epfl;
+  std::string out;
+};
+
+int runTruth(const TruthOptions& o) {
+  const std::vector<FloorPointRow> rows = readEpflGroundTruth(o.epfl);
+  std::ofstream out(o.out);
+  if (!out) throw InputError(o.out, 0, "", "cannot write the truth file here");
+  out << "frame,x_m,y_m\n";
+  char line[96];
+  for (const FloorPointRow& row : rows) {
+    std::snprintf(line, sizeof line, "%lld,%.4f,%.4f\n", static_cast<long long>(row.frame),
+                  row.point.x_m, row.point.y_m);
+    out << line;
+  }
+  out.close();
+  if (!out) throw InputError(o.out, 0, "", "writing the truth file failed");
+  std::int64_t last = 0;
+  for (const FloorPointRow& row : rows) last = std::max(last, row.frame);
+  // Frames with nobody in them have no line, in EPFL's file as in this one: --frames says they
+  // were looked at.
+  std::printf(
+      "%zu people in frames 0 to %lld written to %s (score with --frames %lld, so that frames "
+      "with nobody in them count too)\n",
+      rows.size(), static_cast<long long>(last), o.out.c_str(), static_cast<long long>(last + 1));
+  return kExitOk;
+}
+
+}  // namespace
+
+Command addScoreCommand(CLI::App& app) {
+  auto options = std::make_shared<ScoreOptions>();
+  CLI::App* command = app.add_subcommand(
+      "score",
+      "Detections on the floor against the truth: MODA, MODP, precision and recall, the measures "
+      "multi-camera people detection is compared by (WILDTRACK, MVDet).\n"
+      "In each frame the truth and the detections are paired by the optimal assignment (the "
+      "Hungarian method): the most pairs closer than the gate (0.5 m), then the least total "
+      "distance. MODA = 1 - (misses + false positives) / people; MODP = the mean over pairs of "
+      "1 - distance / gate.\n"
+      "Both files are CSV with a header naming the columns frame, x_m and y_m (others, such as "
+      "area_m2 and score, are left alone); frame is the frame set's index from 0. "
+      "The frames scored are those the truth names (and with --frames N, frames 0 to N-1).\n\n"
+      "Example (EPFL Terrace's ground truth, docs/detection.md):\n"
+      "  occmap truth --epfl ../shared/data/epfl-terrace/gt.txt --out truth.csv\n"
+      "  occmap score --truth truth.csv --detections detections.csv --frames 10");
+  command->add_option("--truth", options->truth, "Truth CSV: frame,x_m,y_m[,...]")->required();
+  command->add_option("--detections", options->detections, "Detections CSV: frame,x_m,y_m[,...]")
+      ->required();
+  command->add_option("--gate-m", options->gate_m, "Largest distance of a pair, metres")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  command
+      ->add_option("--frames", options->frames,
+                   "Score frames 0 to N-1, those without truth rows as frames with nobody in them")
+      ->check(CLI::PositiveNumber);
+  command->add_flag("--json", options->json, "Print one JSON object instead of the table");
+  return [options] { return runScore(*options); };
+}
+
+Command addTruthCommand(CLI::App& app) {
+  auto options = std::make_shared<TruthOptions>();
+  CLI::App* command = app.add_subcommand(
+      "truth",
+      "Writes a ground truth as the truth file occmap score reads (frame,x_m,y_m).\n"
+      "--epfl reads EPFL's gt.txt ('index source_frame x_mm y_mm' a line; the index is the "
+      "moment's, the same as the masks' file number and the frame set's index).\n\n"
+      "Example:\n"
+      "  occmap truth --epfl ../shared/data/epfl-terrace-crowd/gt.txt --out crowd-truth.csv");
+  command->add_option("--epfl", options->epfl, "EPFL ground truth file (gt.txt)")->required();
+  command->add_option("--out", options->out, "Truth CSV to write")->required();
+  return [options] { return runTruth(*options); };
+}
+
+}  // namespace occmap::tools
