@@ -40,16 +40,17 @@ namespace {
 
 using Keys = std::span<const std::string_view>;
 
-constexpr std::string_view kTopKeys[] = {"map", "cameras", "fusion", "transport", "control"};
+constexpr std::string_view kTopKeys[] = {"map",       "cameras", "fusion",
+                                         "transport", "control", "footprints"};
+constexpr std::string_view kFootprintKeys[] = {"box_width_m", "box_height_m", "step_m",
+                                               "min_support", "min_fresh",    "min_separation_m",
+                                               "min_cameras"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
-constexpr std::string_view kLightingKeys[] = {"adapt",
-                                              "drift_frames",
-                                              "min_agreement",
-                                              "min_agreement_in_place",
-                                              "agreement_grey_levels",
-                                              "local"};
+constexpr std::string_view kLightingKeys[] = {
+    "adapt", "drift_frames", "min_agreement", "min_agreement_in_place", "agreement_grey_levels",
+    "local"};
 constexpr std::string_view kTransportKeys[] = {"lcm_url", "map_channel", "status_channel",
                                                "encoding"};
 constexpr std::string_view kControlKeys[] = {"enabled", "key_file", "replay_window_s"};
@@ -239,6 +240,8 @@ class ConfigReader {
         config.transport = readTransport(entry.value);
       } else if (entry.key == "control") {
         config.control = readControl(entry.value);
+      } else if (entry.key == "footprints") {
+        config.footprints = readFootprints(entry.value);
       }
     }
     if (!has_map) {
@@ -422,6 +425,28 @@ class ConfigReader {
       }
     }
     return fusion;
+  }
+
+  FootprintSettings readFootprints(const Value& value) const {
+    FootprintSettings footprints;
+    for (const Entry& entry : entries(value, kFootprintKeys)) {
+      if (entry.key == "box_width_m") {
+        footprints.box_width_m = real(entry.value, 0.0, true, 5.0, " m");
+      } else if (entry.key == "box_height_m") {
+        footprints.box_height_m = real(entry.value, 0.0, true, 5.0, " m");
+      } else if (entry.key == "step_m") {
+        footprints.step_m = real(entry.value, 0.0, true, 2.0, " m");
+      } else if (entry.key == "min_support") {
+        footprints.min_support = real(entry.value, 0.0, true, 1.0, "");
+      } else if (entry.key == "min_fresh") {
+        footprints.min_fresh = real(entry.value, 0.0, true, 1.0, "");
+      } else if (entry.key == "min_cameras") {
+        footprints.min_cameras = smallInteger(entry.value, 1, 64);
+      } else if (entry.key == "min_separation_m") {
+        footprints.min_separation_m = real(entry.value, 0.0, false, 5.0, " m");
+      }
+    }
+    return footprints;
   }
 
   LightingOverride readLighting(const Value& value) const {

@@ -10,6 +10,7 @@
 
 #include "core/camera.h"
 #include "core/camera_model.h"
+#include "core/footprints.h"
 #include "core/lighting_model.h"
 #include "core/map_geometry.h"
 
@@ -84,6 +85,7 @@ struct Config {
   FusionSettings fusion;
   TransportSettings transport;
   ControlSettings control;
+  FootprintSettings footprints;  // footprints: people and objects on the map (docs/detection.md)
   std::vector<CameraConfig> cameras;
 };
 

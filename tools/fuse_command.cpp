@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -17,6 +18,7 @@
 #include "config/input_error.h"
 #include "config/rig.h"
 #include "core/changed_pixels.h"
+#include "core/footprints.h"
 #include "core/fusion_kernel.h"
 #include "core/repose.h"
 #include "tools/commands.h"
@@ -35,6 +37,8 @@ struct FuseOptions {
   std::uint64_t frames = 0;  // 0: until the first source ends
   bool overwrite = false;
   std::string snapshot;
+  std::string detections;  // CSV of the footprints found on each map (occmap detect)
+  const char* command = "fuse";
 };
 
 // map_ + six or more digits + .png: the names this command writes.
@@ -215,9 +219,19 @@ int run(const FuseOptions& o) {
   }
   // Everything that can be wrong with the input is found before anything is written: a bad
   // calibration, source or background must not leave an empty or emptied folder behind.
-  const std::vector<fs::path> old_maps = checkOutput(out, o.overwrite);
-  PreparedRig prepared = prepareRigWithProgress(config, "fuse");
-  makeOutput(out, old_maps);
+  const bool write_maps = !o.out.empty();
+  const std::vector<fs::path> old_maps =
+      write_maps ? checkOutput(out, o.overwrite) : std::vector<fs::path>{};
+  PreparedRig prepared = prepareRigWithProgress(config, o.command);
+  if (write_maps) makeOutput(out, old_maps);
+  std::ofstream detections_file;
+  if (!o.detections.empty()) {
+    detections_file.open(o.detections);
+    if (!detections_file) {
+      throw InputError(o.detections, 0, "--out", "cannot write the detections file here");
+    }
+    detections_file << "frame,x_m,y_m,area_m2,score\n";
+  }
   Rig& rig = prepared.rig;
   const std::vector<CarveTable>& tables = prepared.tables;
   const double column_height = prepared.column_height_m;
@@ -244,6 +258,13 @@ int run(const FuseOptions& o) {
   std::vector<std::vector<std::uint8_t>> changed(cameras.size());
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     changed[k].assign(changedMaskBytes(cameras[k].source->width(), cameras[k].source->height()), 0);
+  }
+  std::optional<FootprintDetector> detector;
+  std::uint64_t detections = 0;
+  if (detections_file.is_open()) {
+    std::vector<Camera> posed;
+    for (const RigCamera& camera : cameras) posed.push_back(*camera.camera);
+    detector.emplace(config.map, posed, config.footprints);
   }
   std::vector<ChangedPixels> changed_pixels;
   for (const RigCamera& camera : cameras)
@@ -339,10 +360,19 @@ int run(const FuseOptions& o) {
     }
     if (ended) break;
     kernel.fuse(masks, map.cells);
+    if (detector) {
+      for (const Detection& d : detector->detect(masks, map.cells)) {
+        char row[128];
+        std::snprintf(row, sizeof row, "%llu,%.3f,%.3f,%.4f,%.3f\n",
+                      static_cast<unsigned long long>(maps), d.x_m, d.y_m, d.area_m2, d.score);
+        detections_file << row;
+        ++detections;
+      }
+    }
     char name[32];
     std::snprintf(name, sizeof name, "map_%06llu.png", static_cast<unsigned long long>(maps));
     std::string error;
-    if (!writeGreyPng(out / name, mapImage(map), error)) {
+    if (write_maps && !writeGreyPng(out / name, mapImage(map), error)) {
       progress.finish();
       std::fprintf(stderr, "occmap fuse: %s\n", error.c_str());
       return kExitFailure;
@@ -384,13 +414,24 @@ int run(const FuseOptions& o) {
     return kExitFailure;
   }
   const std::uint64_t cells = maps * config.map.cellCount();
-  std::printf(
-      "wrote %llu maps (%dx%d cells of %.3g m, column height %.3g m) to %s in %.1f s "
-      "(%.1f maps/s); cells free %.1f %%, occupied %.1f %%, unseen %.1f %%\n",
-      static_cast<unsigned long long>(maps), config.map.width, config.map.height,
-      config.map.cell_size_m, column_height, out.string().c_str(), seconds,
-      static_cast<double>(maps) / seconds, percent(counts[0], cells), percent(counts[1], cells),
-      percent(counts[2], cells));
+  if (detector) {
+    detections_file.close();
+    if (!detections_file) {
+      std::fprintf(stderr, "occmap %s: writing %s failed\n", o.command, o.detections.c_str());
+      return kExitFailure;
+    }
+    std::printf("wrote %llu detections on %llu maps to %s (%.1f maps/s)\n",
+                static_cast<unsigned long long>(detections), static_cast<unsigned long long>(maps),
+                o.detections.c_str(), static_cast<double>(maps) / seconds);
+  }
+  if (write_maps)
+    std::printf(
+        "wrote %llu maps (%dx%d cells of %.3g m, column height %.3g m) to %s in %.1f s "
+        "(%.1f maps/s); cells free %.1f %%, occupied %.1f %%, unseen %.1f %%\n",
+        static_cast<unsigned long long>(maps), config.map.width, config.map.height,
+        config.map.cell_size_m, column_height, out.string().c_str(), seconds,
+        static_cast<double>(maps) / seconds, percent(counts[0], cells), percent(counts[1], cells),
+        percent(counts[2], cells));
   if (truth_maker) {
     std::printf(
         "against the simulator's ground truth: %.2f %% of cells under objects not free; "
@@ -478,6 +519,27 @@ Command addFuseCommand(CLI::App& app) {
   command->add_option("--snapshot", options->snapshot,
                       "Also write a picture of the last frame set's camera images next to its "
                       "map, drawn as a floor plan (PNG; outside the maps' folder)");
+  return [options] { return run(*options); };
+}
+
+Command addDetectCommand(CLI::App& app) {
+  auto options = std::make_shared<FuseOptions>();
+  options->command = "detect";
+  CLI::App* command = app.add_subcommand(
+      "detect",
+      "The people and objects on each map, off-line: where the cameras' evidence says something "
+      "stands (docs/detection.md).\n"
+      "Fuses every camera's frames as occmap fuse does and writes one CSV row per detection, "
+      "frame,x_m,y_m,area_m2,score: frame is the frame set's index from 0, (x_m, y_m) the "
+      "footprint's centre on the floor, area_m2 the occupied floor under a person-sized box "
+      "there, score the least share of changed pixels any camera that sees it finds in its box "
+      "(0 to 1). The config's footprints section sets the box and the rules.\n\n"
+      "Example (EPFL Terrace; then occmap score, docs/detection.md):\n"
+      "  occmap detect --config examples/epfl-terrace.yaml --out detections.csv");
+  command->add_option("--config", options->config, "Config file (YAML; see README)")->required();
+  command->add_option("--out", options->detections, "Detections CSV to write")->required();
+  command->add_option("--frames", options->frames, "Stop after this many frame sets")
+      ->check(CLI::PositiveNumber);
   return [options] { return run(*options); };
 }
 

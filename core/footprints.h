@@ -1,0 +1,124 @@
+#pragma once
+// People and objects on the map (issue 14, docs/detection.md): where the cameras' evidence says
+// something stands, not merely where the floor is hidden.
+//
+// The occupancy map alone is not a detector: most of its occupied cells are occlusion wedges, the
+// floor behind people that no camera can vouch for. What tells a person from a wedge is the rest
+// of the column: a person standing at a place changes the image of a person-sized box there in
+// every camera that has it in view, while above a wedge some camera sees the background past the
+// person who casts it. And in a crowd, where every camera's box at a wrong place is covered by
+// other people's silhouettes, the changed pixels are explained jointly: people are taken one at a
+// time, the best explained first, and the pixels each one explains no longer count as evidence for
+// anyone else (a greedy explanation of the images, in the spirit of POM's joint one at a small
+// part of its cost).
+//
+// Per frame set: each camera's changed pixels (core/fusion_kernel.h's tile layout) and the map.
+// Candidates are the places on a grid whose map cell is occupied (the map says where nothing
+// stands: column carving keeps a person's own cells occupied). Each candidate's box (POM's
+// 0.5 x 0.5 x 1.75 m person) is, in each camera whose image has its foot point, the rectangle
+// bounding the box's eight corners. In camera k the candidate's support is the share of changed
+// pixels among the rectangle's pixels not yet explained; a camera where most of the rectangle is
+// explained already (the candidate hidden behind people found) abstains. A candidate is a
+// detection when every camera that does not abstain, and at least one, supports it by at least
+// min_support; of those the best supported is taken, its rectangles' changed pixels become
+// explained, and the rest are judged again.
+// No I/O, no threads; buffers are made once, nothing is allocated per frame set once the
+// detections have their largest count.
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/map_geometry.h"
+
+namespace occmap {
+
+struct FootprintSettings {
+  // The person-sized box: POM's (Fleuret et al. 2008).
+  double box_width_m = 0.5;
+  double box_height_m = 1.75;
+  // The candidates' grid (at least the map's cell).
+  double step_m = 0.1;
+  // The least share of changed pixels among a camera's unexplained pixels of the box for it to
+  // support a person there. A person fills well under all of the rectangle bounding the box
+  // (measured on EPFL Terrace's masks, docs/detection.md).
+  double min_support = 0.2;
+  // The least number of cameras that support a person there: one view alone cannot tell a person
+  // from the floor behind one, anywhere along its rays (measured on EPFL Terrace's crowd:
+  // detections one camera alone supported were 13 people and 524 ghosts, docs/detection.md).
+  int min_cameras = 2;
+  // The least mean share, over the cameras that see it, of a box's pixels changed and not yet
+  // explained by the people found: what a person there would add.
+  double min_fresh = 0.1;
+  // Two people's centres are at least this far apart on the floor.
+  double min_separation_m = 0.35;
+};
+
+struct Detection {
+  double x_m = 0.0;
+  double y_m = 0.0;
+  double area_m2 = 0.0;  // the occupied cells of the map under the box's footprint
+  double score = 0.0;    // the least support of a camera that did not abstain, 0 to 1
+};
+
+class FootprintDetector {
+ public:
+  FootprintDetector(const MapGeometry& map, std::span<const Camera> cameras,
+                    const FootprintSettings& settings = {});
+
+  // changed[k]: camera k's changed-pixel tiles, or nullptr when it has no frame in this set (it
+  // then says nothing). `cells` is the map fused from them. Valid until the next call.
+  const std::vector<Detection>& detect(std::span<const std::uint8_t* const> changed,
+                                       std::span<const CellState> cells);
+
+  std::size_t candidateCount() const { return candidates_.size(); }
+
+ private:
+  struct Box {  // a candidate's rectangle in one camera: pixels [u0, u1) x [v0, v1)
+    std::uint16_t u0, v0, u1, v1;
+  };
+  struct CameraPlane {
+    int width = 0;
+    int height = 0;
+    std::vector<std::uint32_t> changed;        // integral image of changed pixels
+    std::vector<std::uint32_t> explained;      // integral image of changed pixels explained
+    std::vector<std::uint8_t> explained_bits;  // 1 per pixel, this frame set
+    int stale_from = 0;  // the first row of `explained` not made from explained_bits yet
+  };
+  struct Candidate {
+    double x_m, y_m;
+    // The map cells [row0, row1) x [column0, column1) within a quarter of the box's width of its
+    // centre: the annotation's and the carving's slack. One of them must be occupied.
+    int row0, column0, row1, column1;
+    std::size_t boxes;  // first of its cameras_.size() entries in boxes_
+  };
+  static constexpr std::uint16_t kNotSeen = 0xffff;
+
+  struct Evidence {
+    int cameras = 0;       // that see the place
+    double support = 1.0;  // the least share of changed pixels in a camera's box
+    double fresh = 0.0;    // the mean share of changed pixels not yet explained
+  };
+  Evidence evidence(std::size_t candidate) const;
+  // The changed pixels of the candidate's boxes become explained; updateExplained() then makes
+  // the integral images again, once for any number of candidates marked.
+  void markExplained(std::size_t candidate);
+  void updateExplained();
+  void forgetExplained();
+
+  MapGeometry map_;
+  FootprintSettings settings_;
+  std::vector<Candidate> candidates_;
+  std::vector<Box> boxes_;  // candidates x cameras; u0 == kNotSeen where not in view
+  std::vector<CameraPlane> planes_;
+  std::vector<const std::uint8_t*> changed_;
+  std::vector<std::uint32_t> occupied_;  // integral image of the map's occupied cells
+  std::vector<std::size_t> alive_;
+  std::vector<Detection> detections_;
+  std::vector<std::size_t> chosen_;  // the candidate of each detection
+  std::vector<std::uint8_t> kept_;
+};
+
+}  // namespace occmap

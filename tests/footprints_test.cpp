@@ -1,0 +1,198 @@
+// People found on the floor from the cameras' changed pixels (core/footprints.h), on synthetic
+// scenes whose truth is known exactly: four cameras in the corners of a 6 x 6 m floor, people as
+// upright cylinders, each camera's changed pixels those whose ray meets one. The map is all
+// occupied, so the map's prior helps nothing: what is found is found from the images alone.
+#include "core/footprints.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/detection_score.h"
+#include "core/fusion_kernel.h"
+#include "core/tsai_camera.h"
+
+namespace occmap {
+namespace {
+
+constexpr double kRadius = 0.2;   // a person's, on the floor
+constexpr double kHeight = 1.75;  // as POM's box
+constexpr int kWidth = 320, kHeight_px = 240;
+
+Camera cornerCamera(const Eigen::Vector3d& position_m) {
+  TsaiParameters p;
+  p.width = kWidth;
+  p.height = kHeight_px;
+  p.ncx = p.nfx = p.width;
+  p.dx = p.dy = p.dpx = p.dpy = 0.01;
+  p.sx = 1.0;
+  p.focal = 0.7 * p.dpx * p.width;  // a horizontal field of view of about 71 degrees
+  p.kappa1 = 0.0;
+  p.cx = p.width / 2.0;
+  p.cy = p.height / 2.0;
+  p.setPose(poseLookingAt(position_m * 1000.0, Eigen::Vector3d(3000, 3000, 0)));
+  return Camera(std::make_shared<TsaiCamera>(p), LengthUnit::kMillimetre, kWidth, kHeight_px);
+}
+
+struct Room {
+  MapGeometry map;
+  std::vector<Camera> cameras;
+  Room() {
+    map.origin_x_m = 0.0;
+    map.origin_y_m = 0.0;
+    map.cell_size_m = 0.05;
+    map.width = 120;
+    map.height = 120;
+    for (const auto& [x, y] : {std::pair{-0.5, -0.5}, {6.5, -0.5}, {6.5, 6.5}, {-0.5, 6.5}}) {
+      cameras.push_back(cornerCamera({x, y, 3.0}));
+    }
+  }
+};
+
+// Camera k's changed pixels: those whose ray passes through a person's cylinder.
+std::vector<std::uint8_t> render(const Camera& camera, const std::vector<FloorPoint>& people) {
+  std::vector<std::uint8_t> tiles(changedMaskBytes(kWidth, kHeight_px), 0);
+  const std::size_t across = tilesAcross(kWidth);
+  for (int v = 0; v < kHeight_px; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      const std::optional<Ray> ray = camera.streamToRay({u, v});
+      if (!ray) continue;
+      const Eigen::Vector3d o = ray->origin, d = ray->direction;
+      bool hit = false;
+      for (const FloorPoint& person : people) {
+        // |o + t d - c| in the floor's plane = r: a quadratic in t.
+        const double ox = o.x() - person.x_m, oy = o.y() - person.y_m;
+        const double a = d.x() * d.x() + d.y() * d.y();
+        const double b = 2 * (ox * d.x() + oy * d.y());
+        const double c = ox * ox + oy * oy - kRadius * kRadius;
+        const double discriminant = b * b - 4 * a * c;
+        if (a <= 0 || discriminant < 0) continue;
+        const double t0 = (-b - std::sqrt(discriminant)) / (2 * a);
+        const double t1 = (-b + std::sqrt(discriminant)) / (2 * a);
+        // Inside the cylinder for t in [t0, t1]: hit if z there meets [0, height].
+        const double z0 = o.z() + t0 * d.z(), z1 = o.z() + t1 * d.z();
+        if (t1 > 0 && std::max(z0, z1) >= 0 && std::min(z0, z1) <= kHeight) hit = true;
+      }
+      if (!hit) continue;
+      const std::size_t tile =
+          static_cast<std::size_t>(v / 8) * across + static_cast<std::size_t>(u / 8);
+      tiles[tile * 8 + static_cast<std::size_t>(v % 8)] |= static_cast<std::uint8_t>(1 << (u % 8));
+    }
+  }
+  return tiles;
+}
+
+std::vector<FloorPoint> randomPeople(std::mt19937_64& rng, int count) {
+  std::uniform_real_distribution<double> place(0.8, 5.2);
+  std::vector<FloorPoint> people;
+  while (static_cast<int>(people.size()) < count) {
+    const FloorPoint p{place(rng), place(rng)};
+    bool apart = true;
+    for (const FloorPoint& q : people)
+      apart = apart && std::hypot(p.x_m - q.x_m, p.y_m - q.y_m) > 0.6;
+    if (apart) people.push_back(p);
+  }
+  return people;
+}
+
+const std::vector<Detection>& detect(FootprintDetector& detector, const Room& room,
+                                     const std::vector<FloorPoint>& people,
+                                     std::vector<std::vector<std::uint8_t>>& masks,
+                                     std::size_t left_out = 99) {
+  masks.clear();
+  std::vector<const std::uint8_t*> changed;
+  for (const Camera& camera : room.cameras) masks.push_back(render(camera, people));
+  for (std::size_t k = 0; k < masks.size(); ++k) {
+    changed.push_back(k == left_out ? nullptr : masks[k].data());
+  }
+  const std::vector<CellState> cells(room.map.cellCount(), CellState::kOccupied);
+  return detector.detect(changed, cells);
+}
+
+std::vector<FloorPoint> points(const std::vector<Detection>& detections) {
+  std::vector<FloorPoint> out;
+  for (const Detection& d : detections) out.push_back({d.x_m, d.y_m});
+  return out;
+}
+
+TEST(Footprints, FindsEveryoneInRandomCrowdsAndNoGhosts) {
+  const Room room;
+  FootprintDetector detector(room.map, room.cameras);
+  std::mt19937_64 rng(3);
+  DetectionScorer scorer(0.3);
+  std::vector<std::vector<std::uint8_t>> masks;
+  for (int scene = 0; scene < 30; ++scene) {
+    const std::vector<FloorPoint> people = randomPeople(rng, 1 + scene % 8);
+    scorer.addFrame(people, points(detect(detector, room, people, masks)));
+  }
+  const DetectionScore& s = scorer.score();
+  std::printf("%zu people: MODA %.3f, precision %.3f, recall %.3f, mean distance %.3f m\n",
+              s.people, s.moda(), s.precision(), s.recall(),
+              s.distance_m / static_cast<double>(std::max<std::size_t>(1, s.pairs)));
+  EXPECT_GE(s.moda(), 0.9) << "misses " << s.misses() << ", false positives " << s.falsePositives();
+  EXPECT_GE(s.precision(), 0.95);
+  EXPECT_GE(s.recall(), 0.95);
+  EXPECT_GE(s.modp(), 0.5) << "a mean distance of " << s.distance_m / static_cast<double>(s.pairs)
+                           << " m";
+}
+
+TEST(Footprints, NeedsTwoCamerasToTellAPersonFromTheFloorBehind) {
+  const Room room;
+  FootprintDetector detector(room.map, room.cameras);
+  const std::vector<FloorPoint> one = {{3.0, 3.0}};
+  std::vector<std::vector<std::uint8_t>> masks;
+  // With every camera: found, and its box holds a person in each of them.
+  const std::vector<Detection>& found = detect(detector, room, one, masks);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_LT(std::hypot(found[0].x_m - 3.0, found[0].y_m - 3.0), 0.15);
+  EXPECT_GT(found[0].score, 0.4);
+  EXPECT_GT(found[0].area_m2, 0.2) << "the map is all occupied: the whole box's footprint";
+  // A camera without a frame says nothing; the other three still find the person.
+  EXPECT_EQ(detect(detector, room, one, masks, /*left_out=*/2).size(), 1u);
+  // One camera alone cannot place anyone.
+  FootprintDetector single(room.map, std::span<const Camera>(room.cameras.data(), 1));
+  const std::vector<std::uint8_t> mask = render(room.cameras[0], one);
+  const std::uint8_t* changed[] = {mask.data()};
+  const std::vector<CellState> cells(room.map.cellCount(), CellState::kOccupied);
+  EXPECT_TRUE(single.detect(changed, cells).empty());
+  FootprintSettings lenient;
+  lenient.min_cameras = 1;
+  FootprintDetector lenient_single(room.map, std::span<const Camera>(room.cameras.data(), 1),
+                                   lenient);
+  EXPECT_FALSE(lenient_single.detect(changed, cells).empty()) << "the rule, not the geometry";
+}
+
+TEST(Footprints, TheMapSaysWhereNoOneCanStand) {
+  const Room room;
+  FootprintDetector detector(room.map, room.cameras);
+  const std::vector<FloorPoint> one = {{3.0, 3.0}};
+  std::vector<const std::uint8_t*> changed;
+  std::vector<std::vector<std::uint8_t>> masks;
+  for (const Camera& camera : room.cameras) masks.push_back(render(camera, one));
+  for (const auto& mask : masks) changed.push_back(mask.data());
+  // Everything free but a cell 1 m away: no one is found where the map says no one stands.
+  std::vector<CellState> cells(room.map.cellCount(), CellState::kFree);
+  cells[static_cast<std::size_t>(*room.map.cellAt(4.0, 3.0))] = CellState::kOccupied;
+  EXPECT_TRUE(detector.detect(changed, cells).empty());
+  // A cell 0.4 m away: what is found is within a quarter of the box (and a step) of that cell.
+  cells[static_cast<std::size_t>(*room.map.cellAt(4.0, 3.0))] = CellState::kFree;
+  cells[static_cast<std::size_t>(*room.map.cellAt(3.4, 3.0))] = CellState::kOccupied;
+  for (const Detection& d : detector.detect(changed, cells)) {
+    EXPECT_LE(std::hypot(d.x_m - 3.4, d.y_m - 3.0), 0.125 + 0.1 + 0.05) << d.x_m << ", " << d.y_m;
+  }
+  cells[static_cast<std::size_t>(*room.map.cellAt(3.4, 3.0))] = CellState::kFree;
+  // Its own cell occupied: found.
+  cells[static_cast<std::size_t>(*room.map.cellAt(3.02, 3.02))] = CellState::kOccupied;
+  EXPECT_EQ(detector.detect(changed, cells).size(), 1u);
+  EXPECT_THROW(detector.detect(changed, std::vector<CellState>(3)), std::invalid_argument);
+  changed.pop_back();
+  EXPECT_THROW(detector.detect(changed, cells), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace occmap
