@@ -27,6 +27,7 @@
 #include "bench/json_line.h"
 #include "bench/previous_kernel.h"
 #include "core/changed_pixels.h"
+#include "core/footprints.h"
 #include "core/fusion_kernel.h"
 #include "core/reference_fusion.h"
 
@@ -365,6 +366,34 @@ void fuseCase(benchmark::State& state, const std::string& config, const std::str
   finish(state);
 }
 
+// The people on each map (core/footprints.h), after the fusion, on the fusion's thread: each
+// mask set's map is made once beforehand, and the detection runs on the masks and map in turn.
+void footprintsCase(benchmark::State& state, const std::string& config,
+                    const std::string& mode_name) {
+  ConfigData& data = configData(config);
+  FusionKernel& kernel = *mode(data, mode_name).kernel;
+  const std::vector<std::vector<const std::uint8_t*>> changed = maskSets(data);
+  std::vector<std::vector<CellState>> maps(changed.size());
+  for (std::size_t i = 0; i < changed.size(); ++i) {
+    maps[i].resize(data.rig->config().map.cellCount());
+    kernel.fuse(changed[i], maps[i]);
+  }
+  std::vector<Camera> cameras;
+  for (std::size_t k = 0; k < data.backgrounds.size(); ++k) {
+    cameras.push_back(data.rig->renderer(k).camera());
+  }
+  FootprintDetector detector(data.rig->config().map, cameras);
+  std::size_t i = 0, found = 0;
+  for (auto _ : state) {
+    found += detector.detect(changed[i], maps[i]).size();
+    if (++i == changed.size()) i = 0;
+  }
+  state.counters["detections_per_map"] =
+      static_cast<double>(found) /
+      static_cast<double>(std::max<std::int64_t>(1, state.iterations()));
+  finish(state);
+}
+
 // The fusion thread's share as occmapd runs it: a map every 1/60 s and the rest of each period
 // idle, so that between two maps the tables may leave the caches (and the core its fast states),
 // as they do in the daemon; the cold cases, which run maps back to back, keep the tables in the
@@ -487,6 +516,10 @@ void registerAll() {
         }
         benchmark::RegisterBenchmark((config + "/" + mode_name + "/fuse/" + temperature).c_str(),
                                      fuseCase, config, mode_name, cold);
+      }
+      if (mode_name == "column") {
+        benchmark::RegisterBenchmark((config + "/" + mode_name + "/footprints").c_str(),
+                                     footprintsCase, config, mode_name);
       }
       // 120 maps at 60 Hz: two seconds a repetition.
       benchmark::RegisterBenchmark((config + "/" + mode_name + "/fuse/paced").c_str(),

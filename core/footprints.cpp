@@ -1,6 +1,8 @@
 #include "core/footprints.h"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -19,12 +21,6 @@ std::uint32_t rectangleSum(const std::vector<std::uint32_t>& integral, int width
                     static_cast<std::size_t>(u)];
   };
   return at(u1, v1) - at(u0, v1) - at(u1, v0) + at(u0, v0);
-}
-
-bool changedAt(const std::uint8_t* tiles, std::size_t across, int u, int v) {
-  const std::size_t tile =
-      static_cast<std::size_t>(v / 8) * across + static_cast<std::size_t>(u / 8);
-  return (tiles[tile * 8 + static_cast<std::size_t>(v % 8)] >> (u % 8) & 1) != 0;
 }
 
 }  // namespace
@@ -47,13 +43,11 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
     if (plane.width >= kNotSeen || plane.height >= kNotSeen) {
       throw std::invalid_argument("FootprintDetector: an image wider or higher than 65 534 pixels");
     }
-    const std::size_t entries =
-        static_cast<std::size_t>(plane.width + 1) * static_cast<std::size_t>(plane.height + 1);
-    plane.changed.assign(entries, 0);
-    plane.explained.assign(entries, 0);
-    plane.explained_bits.assign(
-        static_cast<std::size_t>(plane.width) * static_cast<std::size_t>(plane.height), 0);
   }
+  // Each candidate's rectangle in each camera, in pixels (u_min, v_min, u_max, v_max; NaN where
+  // the camera does not see the place), before the blocks are chosen.
+  std::vector<std::array<double, 4>> pixel_boxes;
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   for (double y = map.origin_y_m + step / 2; y < map.origin_y_m + map_height_m; y += step) {
     for (double x = map.origin_x_m + step / 2; x < map.origin_x_m + map_width_m; x += step) {
       const double reach = settings.box_width_m / 4;
@@ -66,11 +60,12 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
                           std::clamp(cellOf(x - reach, map.origin_x_m), 0, map.width),
                           std::clamp(cellOf(y + reach, map.origin_y_m) + 1, 0, map.height),
                           std::clamp(cellOf(x + reach, map.origin_x_m) + 1, 0, map.width),
-                          boxes_.size()};
+                          pixel_boxes.size()};
       if (candidate.row1 <= candidate.row0 || candidate.column1 <= candidate.column0) continue;
       bool any = false;
-      for (const Camera& camera : cameras) {
-        Box box{kNotSeen, kNotSeen, kNotSeen, kNotSeen};
+      for (std::size_t k = 0; k < cameras.size(); ++k) {
+        const Camera& camera = cameras[k];
+        std::array<double, 4> pixel_box{kNaN, kNaN, kNaN, kNaN};
         const int w = camera.streamWidth(), h = camera.streamHeight();
         // A person's box as the camera sees it: the upright rectangle, box_width_m wide and
         // box_height_m tall, standing at the place and facing the camera (the rectangle bounding
@@ -99,25 +94,67 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
           v_max = std::max(v_max, pixel->y());
         }
         if (whole) {
-          // Pixel centres are integers: the pixels whose centres the rectangle covers.
-          const int u0 = std::clamp(static_cast<int>(std::ceil(u_min)), 0, w);
-          const int u1 = std::clamp(static_cast<int>(std::floor(u_max)) + 1, 0, w);
-          const int v0 = std::clamp(static_cast<int>(std::ceil(v_min)), 0, h);
-          const int v1 = std::clamp(static_cast<int>(std::floor(v_max)) + 1, 0, h);
-          if (u1 > u0 && v1 > v0) {
-            box = {static_cast<std::uint16_t>(u0), static_cast<std::uint16_t>(v0),
-                   static_cast<std::uint16_t>(u1), static_cast<std::uint16_t>(v1)};
-            any = true;
-          }
+          pixel_box = {u_min, v_min, u_max, v_max};
+          any = true;
         }
-        boxes_.push_back(box);
+        pixel_boxes.push_back(pixel_box);
       }
       if (any) {
         candidates_.push_back(candidate);
       } else {
-        boxes_.resize(candidate.boxes);
+        pixel_boxes.resize(candidate.boxes);
       }
     }
+  }
+  // Per camera, blocks as large as leaves the narrowest tenth of the boxes it sees some
+  // kBlocksPerBox blocks across: the sums are then as good for the people at the far side as for
+  // the near ones, and cost the same for a 360 x 288 image and a 1920 x 1080 one.
+  for (std::size_t k = 0; k < planes_.size(); ++k) {
+    std::vector<double> widths;
+    for (std::size_t c = 0; c < candidates_.size(); ++c) {
+      const std::array<double, 4>& box = pixel_boxes[candidates_[c].boxes + k];
+      if (!std::isnan(box[0])) widths.push_back(box[2] - box[0]);
+    }
+    CameraPlane& plane = planes_[k];
+    plane.block = 1;
+    if (!widths.empty()) {
+      const auto tenth = widths.begin() + static_cast<std::ptrdiff_t>(widths.size() / 10);
+      std::nth_element(widths.begin(), tenth, widths.end());
+      plane.block = std::max(1, static_cast<int>(*tenth / kBlocksPerBox));
+    }
+    plane.across = (plane.width + plane.block - 1) / plane.block;
+    plane.down = (plane.height + plane.block - 1) / plane.block;
+    const std::size_t blocks =
+        static_cast<std::size_t>(plane.across) * static_cast<std::size_t>(plane.down);
+    const std::size_t entries =
+        static_cast<std::size_t>(plane.across + 1) * static_cast<std::size_t>(plane.down + 1);
+    plane.counts.assign(blocks, 0);
+    plane.changed.assign(entries, 0);
+    plane.pieces.reserve(64);
+  }
+  boxes_.resize(pixel_boxes.size());
+  for (std::size_t i = 0; i < pixel_boxes.size(); ++i) {
+    const CameraPlane& plane = planes_[i % planes_.size()];
+    const auto [u_min, v_min, u_max, v_max] = pixel_boxes[i];
+    Box box{kNotSeen, kNotSeen, kNotSeen, kNotSeen, 0.0f};
+    if (!std::isnan(u_min)) {
+      // Pixel centres are integers, so pixel p spans [p - 0.5, p + 0.5): the rectangle's edges
+      // to the nearest block edges, at least one block.
+      const double b = plane.block;
+      const auto edge = [&](double at, int blocks) {
+        return std::clamp(static_cast<int>(std::lround((at + 0.5) / b)), 0, blocks);
+      };
+      int u0 = edge(u_min, plane.across), u1 = edge(u_max, plane.across);
+      int v0 = edge(v_min, plane.down), v1 = edge(v_max, plane.down);
+      if (u1 == u0) u1 < plane.across ? ++u1 : --u0;
+      if (v1 == v0) v1 < plane.down ? ++v1 : --v0;
+      const int pixels_across = std::min(u1 * plane.block, plane.width) - u0 * plane.block;
+      const int pixels_down = std::min(v1 * plane.block, plane.height) - v0 * plane.block;
+      box = {static_cast<std::uint16_t>(u0), static_cast<std::uint16_t>(v0),
+             static_cast<std::uint16_t>(u1), static_cast<std::uint16_t>(v1),
+             static_cast<float>(pixels_across * pixels_down)};
+    }
+    boxes_[i] = box;
   }
   changed_.assign(cameras.size(), nullptr);
   occupied_.assign(
@@ -133,10 +170,18 @@ FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c) const {
     const Box& box = boxes_[candidate.boxes + k];
     if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
     const CameraPlane& plane = planes_[k];
-    const double area = static_cast<double>(box.u1 - box.u0) * (box.v1 - box.v0);
-    const double changed = rectangleSum(plane.changed, plane.width, box.u0, box.v0, box.u1, box.v1);
-    const double explained =
-        rectangleSum(plane.explained, plane.width, box.u0, box.v0, box.u1, box.v1);
+    const double area = box.pixels;
+    const double changed =
+        rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
+    // The changed pixels of the box that the people found cover: their boxes' union is kept as
+    // disjoint pieces, so each piece's overlap counts once.
+    double explained = 0.0;
+    for (const Box& piece : plane.pieces) {
+      const int u0 = std::max(box.u0, piece.u0), u1 = std::min(box.u1, piece.u1);
+      const int v0 = std::max(box.v0, piece.v0), v1 = std::min(box.v1, piece.v1);
+      if (u0 < u1 && v0 < v1)
+        explained += rectangleSum(plane.changed, plane.across, u0, v0, u1, v1);
+    }
     ++e.cameras;
     e.support = std::min(e.support, changed / area);
     fresh += (changed - explained) / area;
@@ -150,12 +195,7 @@ FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c) const {
 }
 
 void FootprintDetector::forgetExplained() {
-  for (std::size_t k = 0; k < planes_.size(); ++k) {
-    if (changed_[k] == nullptr) continue;
-    std::fill(planes_[k].explained.begin(), planes_[k].explained.end(), 0u);
-    std::fill(planes_[k].explained_bits.begin(), planes_[k].explained_bits.end(), std::uint8_t{0});
-    planes_[k].stale_from = planes_[k].height;
-  }
+  for (CameraPlane& plane : planes_) plane.pieces.clear();
 }
 
 void FootprintDetector::markExplained(std::size_t c) {
@@ -164,34 +204,66 @@ void FootprintDetector::markExplained(std::size_t c) {
     const Box& box = boxes_[candidate.boxes + k];
     if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
     CameraPlane& plane = planes_[k];
-    const std::size_t across = tilesAcross(plane.width);
-    for (int v = box.v0; v < box.v1; ++v) {
-      std::uint8_t* bits = plane.explained_bits.data() + static_cast<std::size_t>(v) * plane.width;
-      for (int u = box.u0; u < box.u1; ++u) {
-        if (changedAt(changed_[k], across, u, v)) bits[u] = 1;
+    // The box less every piece already there, as at most four rectangles per piece cut out of
+    // each fragment: above, below, left and right of the piece.
+    fragments_.assign(1, box);
+    for (const Box& piece : plane.pieces) {
+      cut_.clear();
+      for (const Box& f : fragments_) {
+        const std::uint16_t u0 = std::max(f.u0, piece.u0), u1 = std::min(f.u1, piece.u1);
+        const std::uint16_t v0 = std::max(f.v0, piece.v0), v1 = std::min(f.v1, piece.v1);
+        if (u0 >= u1 || v0 >= v1) {
+          cut_.push_back(f);
+          continue;
+        }
+        if (f.v0 < v0) cut_.push_back({f.u0, f.v0, f.u1, v0, 0.0f});
+        if (v1 < f.v1) cut_.push_back({f.u0, v1, f.u1, f.v1, 0.0f});
+        if (f.u0 < u0) cut_.push_back({f.u0, v0, u0, v1, 0.0f});
+        if (u1 < f.u1) cut_.push_back({u1, v0, f.u1, v1, 0.0f});
       }
+      fragments_.swap(cut_);
     }
-    plane.stale_from = std::min(plane.stale_from, static_cast<int>(box.v0));
+    plane.pieces.insert(plane.pieces.end(), fragments_.begin(), fragments_.end());
   }
 }
 
-void FootprintDetector::updateExplained() {
-  for (CameraPlane& plane : planes_) {
-    // The integral image again from the first row marked since, down.
-    const std::size_t stride = static_cast<std::size_t>(plane.width) + 1;
-    for (int v = plane.stale_from; v < plane.height; ++v) {
-      const std::uint8_t* bits =
-          plane.explained_bits.data() + static_cast<std::size_t>(v) * plane.width;
-      const std::uint32_t* above = plane.explained.data() + static_cast<std::size_t>(v) * stride;
-      std::uint32_t* row = plane.explained.data() + static_cast<std::size_t>(v + 1) * stride;
-      std::uint32_t sum = 0;
-      for (int u = 0; u < plane.width; ++u) {
-        sum += bits[u];
-        row[u + 1] = above[u + 1] + sum;
+double FootprintDetector::freshBesideTheOthers(std::size_t i) {
+  // Within detection i's own boxes only (a few thousand blocks), not over whole images: the
+  // blocks that another kept detection's box covers are explained.
+  const Candidate& candidate = candidates_[chosen_[i]];
+  double fresh = 0.0;
+  int cameras = 0;
+  for (std::size_t k = 0; k < planes_.size(); ++k) {
+    const Box& box = boxes_[candidate.boxes + k];
+    if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
+    const CameraPlane& plane = planes_[k];
+    const int across = box.u1 - box.u0;
+    covered_.assign(static_cast<std::size_t>(across) * static_cast<std::size_t>(box.v1 - box.v0),
+                    0);
+    for (std::size_t j = 0; j < chosen_.size(); ++j) {
+      if (j == i || kept_[j] == 0) continue;
+      const Box& other = boxes_[candidates_[chosen_[j]].boxes + k];
+      if (other.u0 == kNotSeen) continue;
+      const int u0 = std::max(box.u0, other.u0), u1 = std::min(box.u1, other.u1);
+      const int v0 = std::max(box.v0, other.v0), v1 = std::min(box.v1, other.v1);
+      for (int v = v0; v < v1; ++v) {
+        std::fill_n(covered_.begin() + (v - box.v0) * across + (u0 - box.u0), std::max(0, u1 - u0),
+                    std::uint8_t{1});
       }
     }
-    plane.stale_from = plane.height;
+    double unexplained = 0.0;
+    for (int v = box.v0; v < box.v1; ++v) {
+      const std::uint32_t* counts =
+          plane.counts.data() + static_cast<std::size_t>(v) * plane.across;
+      const std::uint8_t* covered = covered_.data() + (v - box.v0) * across;
+      for (int u = box.u0; u < box.u1; ++u) {
+        if (covered[u - box.u0] == 0) unexplained += counts[u];
+      }
+    }
+    fresh += unexplained / static_cast<double>(box.pixels);
+    ++cameras;
   }
+  return cameras == 0 ? 0.0 : fresh / cameras;
 }
 
 const std::vector<Detection>& FootprintDetector::detect(
@@ -208,14 +280,33 @@ const std::vector<Detection>& FootprintDetector::detect(
     changed_[k] = changed[k];
     if (changed[k] == nullptr) continue;
     CameraPlane& plane = planes_[k];
-    const std::size_t across = tilesAcross(plane.width);
-    const std::size_t stride = static_cast<std::size_t>(plane.width) + 1;
+    // Changed pixels counted per block, a tile row's byte (8 pixels) at a time: most are 0.
+    std::fill(plane.counts.begin(), plane.counts.end(), 0u);
+    const std::size_t tiles_across = tilesAcross(plane.width);
     for (int v = 0; v < plane.height; ++v) {
+      const std::uint8_t* bytes = changed[k] + static_cast<std::size_t>(v / 8) * tiles_across * 8 +
+                                  static_cast<std::size_t>(v % 8);
+      std::uint32_t* counts =
+          plane.counts.data() + static_cast<std::size_t>(v / plane.block) * plane.across;
+      for (std::size_t tile = 0; tile < tiles_across; ++tile) {
+        unsigned byte = bytes[tile * 8];
+        while (byte != 0) {
+          const int u = static_cast<int>(tile) * 8 + std::countr_zero(byte);
+          byte &= byte - 1;
+          if (u < plane.width) ++counts[u / plane.block];
+        }
+      }
+    }
+    const std::size_t stride = static_cast<std::size_t>(plane.across) + 1;
+    for (int v = 0; v < plane.down; ++v) {
       const std::uint32_t* above = plane.changed.data() + static_cast<std::size_t>(v) * stride;
       std::uint32_t* row = plane.changed.data() + static_cast<std::size_t>(v + 1) * stride;
+      const std::uint32_t* counts =
+          plane.counts.data() +
+          static_cast<std::size_t>(v) * static_cast<std::size_t>(plane.across);
       std::uint32_t sum = 0;
-      for (int u = 0; u < plane.width; ++u) {
-        sum += changedAt(changed[k], across, u, v) ? 1u : 0u;
+      for (int u = 0; u < plane.across; ++u) {
+        sum += counts[u];
         row[u + 1] = above[u + 1] + sum;
       }
     }
@@ -245,12 +336,16 @@ const std::vector<Detection>& FootprintDetector::detect(
     double best_rank = -1.0;
     std::size_t best = 0;
     Evidence best_evidence;
+    // A candidate that fails once fails for good: its cameras and support do not change, and
+    // what it would add only shrinks as people are found. It is dropped.
+    std::size_t still = 0;
     for (const std::size_t c : alive_) {
       const Evidence e = evidence(c);
       if (e.cameras < settings_.min_cameras || e.support < settings_.min_support ||
           e.fresh < settings_.min_fresh) {
         continue;
       }
+      alive_[still++] = c;
       // The most new evidence first: a person where one stands explains the whole of their own
       // silhouette in every camera, a ghost between people only parts of theirs (ranked by the
       // least support instead, the crowd set scored MODA 23 % against 65 %, docs/detection.md).
@@ -260,6 +355,7 @@ const std::vector<Detection>& FootprintDetector::detect(
         best_evidence = e;
       }
     }
+    alive_.resize(still);
     if (best_rank < 0) break;
     const Candidate& found = candidates_[best];
     Detection detection{found.x_m, found.y_m, 0.0, best_evidence.support};
@@ -277,7 +373,6 @@ const std::vector<Detection>& FootprintDetector::detect(
     detections_.push_back(detection);
     chosen_.push_back(best);
     markExplained(best);
-    updateExplained();
     std::erase_if(alive_, [&](std::size_t c) {
       const double dx = candidates_[c].x_m - found.x_m, dy = candidates_[c].y_m - found.y_m;
       return dx * dx + dy * dy < separation2;
@@ -289,12 +384,7 @@ const std::vector<Detection>& FootprintDetector::detect(
   if (detections_.size() > 1) {
     kept_.assign(detections_.size(), 1);
     for (std::size_t i = detections_.size(); i-- > 0;) {
-      forgetExplained();
-      for (std::size_t j = 0; j < detections_.size(); ++j) {
-        if (j != i && kept_[j] != 0) markExplained(chosen_[j]);
-      }
-      updateExplained();
-      if (evidence(chosen_[i]).fresh < settings_.min_fresh) kept_[i] = 0;
+      if (freshBesideTheOthers(i) < settings_.min_fresh) kept_[i] = 0;
     }
     std::size_t out = 0;
     for (std::size_t i = 0; i < detections_.size(); ++i) {

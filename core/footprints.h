@@ -76,17 +76,23 @@ class FootprintDetector {
   std::size_t candidateCount() const { return candidates_.size(); }
 
  private:
-  struct Box {  // a candidate's rectangle in one camera: pixels [u0, u1) x [v0, v1)
+  struct Box {  // a candidate's rectangle in one camera: blocks [u0, u1) x [v0, v1)
     std::uint16_t u0, v0, u1, v1;
+    float pixels;  // the pixels it covers
   };
+  // A camera's changed pixels counted in square blocks (their size: the constructor's).
   struct CameraPlane {
-    int width = 0;
+    int width = 0;  // pixels
     int height = 0;
-    std::vector<std::uint32_t> changed;        // integral image of changed pixels
-    std::vector<std::uint32_t> explained;      // integral image of changed pixels explained
-    std::vector<std::uint8_t> explained_bits;  // 1 per pixel, this frame set
-    int stale_from = 0;  // the first row of `explained` not made from explained_bits yet
+    int block = 1;   // pixels a side
+    int across = 0;  // blocks
+    int down = 0;
+    std::vector<std::uint32_t> counts;   // changed pixels per block
+    std::vector<std::uint32_t> changed;  // integral image of counts
+    // The union of the boxes of the people found so far, as disjoint rectangles.
+    std::vector<Box> pieces;
   };
+  static constexpr int kBlocksPerBox = 16;
   struct Candidate {
     double x_m, y_m;
     // The map cells [row0, row1) x [column0, column1) within a quarter of the box's width of its
@@ -102,11 +108,11 @@ class FootprintDetector {
     double fresh = 0.0;    // the mean share of changed pixels not yet explained
   };
   Evidence evidence(std::size_t candidate) const;
-  // The changed pixels of the candidate's boxes become explained; updateExplained() then makes
-  // the integral images again, once for any number of candidates marked.
+  // The changed pixels of the candidate's boxes become explained.
   void markExplained(std::size_t candidate);
-  void updateExplained();
   void forgetExplained();
+  // The mean share of detection i's boxes changed and explained by no other kept detection.
+  double freshBesideTheOthers(std::size_t i);
 
   MapGeometry map_;
   FootprintSettings settings_;
@@ -119,6 +125,8 @@ class FootprintDetector {
   std::vector<Detection> detections_;
   std::vector<std::size_t> chosen_;  // the candidate of each detection
   std::vector<std::uint8_t> kept_;
+  std::vector<std::uint8_t> covered_;  // freshBesideTheOthers' scratch
+  std::vector<Box> fragments_, cut_;   // markExplained's
 };
 
 }  // namespace occmap
