@@ -242,6 +242,29 @@ TEST(ConfigErrors, UnknownKeysAreNamedWithTheAllowedOnes) {
   expectError(kMinimal + "transport:\n  url: x\n", 6, "transport.url", "lcm_url");
 }
 
+// footprints: (docs/detection.md): read as written, each key checked.
+TEST(Config, FootprintsAreReadAndChecked) {
+  const Config defaults = parseConfig(kMinimal, "/etc/occmap/occmap.yaml");
+  EXPECT_EQ(defaults.footprints.min_cameras, 2);
+  EXPECT_DOUBLE_EQ(defaults.footprints.box_height_m, 1.75);
+  const Config config = parseConfig(
+      kMinimal + "footprints: {box_width_m: 0.6, box_height_m: 1.2, step_m: 0.05, min_support: "
+                 "0.3, min_fresh: 0.15, min_cameras: 3, min_separation_m: 0.4}\n",
+      "/etc/occmap/occmap.yaml");
+  EXPECT_DOUBLE_EQ(config.footprints.box_width_m, 0.6);
+  EXPECT_DOUBLE_EQ(config.footprints.box_height_m, 1.2);
+  EXPECT_DOUBLE_EQ(config.footprints.step_m, 0.05);
+  EXPECT_DOUBLE_EQ(config.footprints.min_support, 0.3);
+  EXPECT_DOUBLE_EQ(config.footprints.min_fresh, 0.15);
+  EXPECT_EQ(config.footprints.min_cameras, 3);
+  EXPECT_DOUBLE_EQ(config.footprints.min_separation_m, 0.4);
+  expectError(kMinimal + "footprints: {min_support: 1.5}\n", 5, "footprints.min_support",
+              "must be <= 1");
+  expectError(kMinimal + "footprints: {min_cameras: 0}\n", 5, "footprints.min_cameras", "");
+  expectError(kMinimal + "footprints: {box_heigth_m: 2}\n", 5, "footprints.box_heigth_m",
+              "did you mean box_height_m?");
+}
+
 TEST(ConfigErrors, WrongTypesNameTheExpectedType) {
   expectError("map: {width: 512.5}\n" + kMinimal.substr(8), 1, "map.width", "whole number");
   expectError("map:\n  height: tall\n" + kMinimal.substr(8), 2, "map.height", "whole number");
