@@ -147,6 +147,51 @@ TEST(ScoreCommand, EpflsGroundTruthConvertsAndScoresAgainstItself) {
   EXPECT_NEAR(s["mean_distance_m"].get<double>(), 0.3, 1e-6);
 }
 
+// occmap score --tracks: MOTA with an identity switch, IDF1 with identities paired once.
+TEST(ScoreCommand, ScoresTracksByMotaAndIdf1) {
+  TemporaryFolder folder;
+  const fs::path truth =
+      folder.write("truth.csv", "frame,x_m,y_m,id\n0,0,0,7\n1,0,0,7\n2,0,0,7\n3,0,0,7\n");
+  const fs::path tracks = folder.write(
+      "tracks.csv", "frame,track_id,x_m,y_m\n0,1,0.1,0\n1,1,0.1,0\n2,2,0.1,0\n3,2,0.1,0\n");
+  const nlohmann::json s = scoreJson({"--truth", truth.string(), "--tracks", tracks.string()});
+  EXPECT_EQ(s["switches"], 1);
+  EXPECT_NEAR(s["mota"].get<double>(), 0.75, 1e-9);
+  EXPECT_NEAR(s["idf1"].get<double>(), 0.5, 1e-9);
+  // A truth without identities cannot score tracks; neither or both inputs is a usage error.
+  const fs::path anonymous = folder.write("anonymous.csv", "frame,x_m,y_m\n0,0,0\n");
+  const testing::CommandResult no_ids =
+      runCommand({kOccmap, "score", "--truth", anonymous.string(), "--tracks", tracks.string()});
+  EXPECT_EQ(no_ids.exit_code, 2);
+  EXPECT_NE(no_ids.err.find("anonymous.csv:1: id: the header has no column 'id'"),
+            std::string::npos)
+      << no_ids.err;
+  EXPECT_EQ(runCommand({kOccmap, "score", "--truth", truth.string()}).exit_code, 2);
+}
+
+// occmap track on the simulated room: a row per track and map, and the score against the
+// simulator's identities.
+TEST(TrackCommand, FollowsTheSimulatedRoomsObjectsWithoutSwitchingThem) {
+  TemporaryFolder folder;
+  const fs::path out = folder / "tracks.csv";
+  const testing::CommandResult result =
+      runCommand({kOccmap, "track", "--config", OCCMAP_SOURCE_DIR "/examples/sim-room.yaml",
+                  "--out", out.string(), "--frames", "60"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  std::ifstream in(out);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "frame,track_id,x_m,y_m,vx_m_s,vy_m_s,area_m2");
+  int rows = 0;
+  while (std::getline(in, line)) ++rows;
+  EXPECT_GT(rows, 60 * 2) << "at least the two people in most maps";
+  // Measured over 300 maps: MOTA 77.8 %, IDF1 87.7 %, no switch (chairs and the robot, short,
+  // are mostly not detected).
+  const std::size_t at = result.out.find("identity switches ");
+  ASSERT_NE(at, std::string::npos) << result.out;
+  EXPECT_EQ(std::stoi(result.out.substr(at + 18)), 0) << result.out;
+}
+
 // occmap detect on the simulated room: a row per detection, the header occmap score reads, and
 // the score against the simulator's own objects printed.
 TEST(DetectCommand, WritesTheDetectionsOfEveryMapAndScoresThemAgainstTheSimulator) {

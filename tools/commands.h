@@ -13,6 +13,7 @@ using Command = std::function<int()>;
 Command addProjectCommand(CLI::App& app);
 Command addFuseCommand(CLI::App& app);
 Command addDetectCommand(CLI::App& app);
+Command addTrackCommand(CLI::App& app);
 Command addCoverageCommand(CLI::App& app);
 Command addBackgroundCommand(CLI::App& app);
 Command addViewCommand(CLI::App& app);

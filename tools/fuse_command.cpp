@@ -22,6 +22,8 @@
 #include "core/footprints.h"
 #include "core/fusion_kernel.h"
 #include "core/repose.h"
+#include "core/track_score.h"
+#include "core/tracker.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
 #include "tools/progress.h"
@@ -39,6 +41,7 @@ struct FuseOptions {
   bool overwrite = false;
   std::string snapshot;
   std::string detections;  // CSV of the footprints found on each map (occmap detect)
+  std::string tracks;      // CSV of the people followed (occmap track)
   const char* command = "fuse";
 };
 
@@ -260,12 +263,35 @@ int run(const FuseOptions& o) {
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     changed[k].assign(changedMaskBytes(cameras[k].source->width(), cameras[k].source->height()), 0);
   }
+  std::ofstream tracks_file;
+  if (!o.tracks.empty()) {
+    tracks_file.open(o.tracks);
+    if (!tracks_file) throw InputError(o.tracks, 0, "--out", "cannot write the tracks file here");
+    tracks_file << "frame,track_id,x_m,y_m,vx_m_s,vy_m_s,area_m2\n";
+  }
   std::optional<FootprintDetector> detector;
   std::uint64_t detections = 0;
+  // Tracks: the time between frame sets is 1 / fps of the first camera (the scene's for the
+  // simulator, the config's `fps` for files://, 30 lacking one): off-line, frames are read as
+  // fast as they go, so their read times are not their capture times.
+  std::optional<Tracker> tracker;
+  std::uint64_t track_rows = 0;
+  TrackScorer track_score;
+  double frame_s = 1.0 / 30.0;
+  if (tracks_file.is_open()) {
+    tracker.emplace();
+    if (cameras.front().sim != nullptr) {
+      frame_s = 1.0 / cameras.front().sim->fps();
+    } else if (config.cameras.front().fps) {
+      frame_s = 1.0 / *config.cameras.front().fps;
+    }
+  }
+  const bool detect = detections_file.is_open() || tracker.has_value();
   // This frame set's detections, and the simulator's people and objects (people among them).
-  std::vector<FloorPoint> found, people, things;
+  std::vector<FloorPoint> found, people, things, followed;
+  std::vector<std::int64_t> thing_ids, followed_ids;
   DetectionScorer people_score, object_score;
-  if (detections_file.is_open()) {
+  if (detect) {
     std::vector<Camera> posed;
     for (const RigCamera& camera : cameras) posed.push_back(*camera.camera);
     detector.emplace(config.map, posed, config.footprints);
@@ -365,14 +391,30 @@ int run(const FuseOptions& o) {
     if (ended) break;
     kernel.fuse(masks, map.cells);
     found.clear();
+    followed.clear();
+    followed_ids.clear();
     if (detector) {
-      for (const Detection& d : detector->detect(masks, map.cells)) {
+      const std::vector<Detection>& detected = detector->detect(masks, map.cells);
+      for (const Detection& d : detected) {
         found.push_back({d.x_m, d.y_m});
+        if (!detections_file.is_open()) continue;
         char row[128];
         std::snprintf(row, sizeof row, "%llu,%.3f,%.3f,%.4f,%.3f\n",
                       static_cast<unsigned long long>(maps), d.x_m, d.y_m, d.area_m2, d.score);
         detections_file << row;
         ++detections;
+      }
+      if (tracker) {
+        for (const Track& t : tracker->update(detected, static_cast<double>(maps) * frame_s)) {
+          followed.push_back({t.x_m, t.y_m});
+          followed_ids.push_back(t.id);
+          char row[160];
+          std::snprintf(row, sizeof row, "%llu,%u,%.3f,%.3f,%.3f,%.3f,%.4f\n",
+                        static_cast<unsigned long long>(maps), t.id, t.x_m, t.y_m, t.vx_m_s,
+                        t.vy_m_s, t.area_m2);
+          tracks_file << row;
+          ++track_rows;
+        }
       }
     }
     char name[32];
@@ -397,11 +439,16 @@ int run(const FuseOptions& o) {
       if (detector) {
         people.clear();
         things.clear();
-        for (const sim::SceneObject& object : objects) {
+        thing_ids.clear();
+        for (std::size_t i = 0; i < objects.size(); ++i) {
+          const sim::SceneObject& object = objects[i];
           const FloorPoint centre{object.solid.centre.x(), object.solid.centre.y()};
           things.push_back(centre);
+          thing_ids.push_back(
+              static_cast<std::int64_t>(i));  // the scene's objects keep their order
           if (object.kind == sim::ObjectKind::kPerson) people.push_back(centre);
         }
+        if (tracker) track_score.addFrame(things, thing_ids, followed, followed_ids);
         people_score.addFrame(people, found);
         object_score.addFrame(things, found);
       }
@@ -431,7 +478,24 @@ int run(const FuseOptions& o) {
     return kExitFailure;
   }
   const std::uint64_t cells = maps * config.map.cellCount();
-  if (detector) {
+  if (tracker) {
+    tracks_file.close();
+    if (!tracks_file) {
+      std::fprintf(stderr, "occmap %s: writing %s failed\n", o.command, o.tracks.c_str());
+      return kExitFailure;
+    }
+    std::printf("wrote %llu track rows on %llu maps to %s (%.1f maps/s, %.3f s between maps)\n",
+                static_cast<unsigned long long>(track_rows), static_cast<unsigned long long>(maps),
+                o.tracks.c_str(), static_cast<double>(maps) / seconds, frame_s);
+    if (truth_maker) {
+      const TrackScore s = track_score.score();
+      std::printf(
+          "against the simulator's objects and their identities (0.5 m gate): MOTA %.2f %%, IDF1 "
+          "%.2f %%, identity switches %zu (%zu object points, %zu track points)\n",
+          100 * s.mota(), 100 * s.idf1(), s.switches, s.truth, s.tracks);
+    }
+  }
+  if (detections_file.is_open()) {
     detections_file.close();
     if (!detections_file) {
       std::fprintf(stderr, "occmap %s: writing %s failed\n", o.command, o.detections.c_str());
@@ -547,6 +611,26 @@ Command addFuseCommand(CLI::App& app) {
   command->add_option("--snapshot", options->snapshot,
                       "Also write a picture of the last frame set's camera images next to its "
                       "map, drawn as a floor plan (PNG; outside the maps' folder)");
+  return [options] { return run(*options); };
+}
+
+Command addTrackCommand(CLI::App& app) {
+  auto options = std::make_shared<FuseOptions>();
+  options->command = "track";
+  CLI::App* command = app.add_subcommand(
+      "track",
+      "The people on the maps followed from map to map, off-line (docs/detection.md).\n"
+      "Detects as occmap detect does and follows the detections with a constant-velocity Kalman "
+      "filter each, given to the tracks by the optimal assignment; a track is reported after 3 "
+      "detections within 1 s and ends after 2 s without one. Writes one CSV row per track and "
+      "map: frame,track_id,x_m,y_m,vx_m_s,vy_m_s,area_m2. The time between maps is 1 / fps of "
+      "the first camera (the simulator's, or the config's fps for files://; 30 lacking one).\n\n"
+      "Example:\n"
+      "  occmap track --config examples/sim-room.yaml --out tracks.csv --frames 300");
+  command->add_option("--config", options->config, "Config file (YAML; see README)")->required();
+  command->add_option("--out", options->tracks, "Tracks CSV to write")->required();
+  command->add_option("--frames", options->frames, "Stop after this many frame sets")
+      ->check(CLI::PositiveNumber);
   return [options] { return run(*options); };
 }
 

@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   add(tools::addProjectCommand, "project");
   add(tools::addFuseCommand, "fuse");
   add(tools::addDetectCommand, "detect");
+  add(tools::addTrackCommand, "track");
   add(tools::addCoverageCommand, "coverage");
   add(tools::addBackgroundCommand, "background");
   add(tools::addViewCommand, "view");

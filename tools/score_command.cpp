@@ -17,6 +17,7 @@
 #include "config/floor_points_file.h"
 #include "config/input_error.h"
 #include "core/detection_score.h"
+#include "core/track_score.h"
 #include "tools/commands.h"
 
 namespace occmap::tools {
@@ -25,6 +26,7 @@ namespace {
 struct ScoreOptions {
   std::string truth;
   std::string detections;
+  std::string tracks;
   double gate_m = 0.5;
   std::optional<std::int64_t> frames;
   bool json = false;
@@ -38,7 +40,70 @@ Frames byFrame(const std::vector<FloorPointRow>& rows) {
   return frames;
 }
 
+// Tracks against a truth with identities: MOTA and IDF1 over the frames the truth names (or
+// 0..N-1).
+int runTrackScore(const ScoreOptions& o) {
+  using Rows = std::map<std::int64_t, std::vector<FloorPointRow>>;
+  Rows truth, tracks;
+  for (const FloorPointRow& row : readFloorPointsCsv(o.truth, "truth", "id")) {
+    truth[row.frame].push_back(row);
+  }
+  for (const FloorPointRow& row : readFloorPointsCsv(o.tracks, "tracks", "track_id")) {
+    tracks[row.frame].push_back(row);
+  }
+  std::set<std::int64_t> scored;
+  for (const auto& [frame, rows] : truth) scored.insert(frame);
+  if (o.frames) {
+    for (std::int64_t frame = 0; frame < *o.frames; ++frame) scored.insert(frame);
+  }
+  if (scored.empty()) {
+    throw InputError(o.truth, 0, "", "has no rows and --frames was not given: nothing to score");
+  }
+  TrackScorer scorer(o.gate_m);
+  std::vector<FloorPoint> truth_points, track_points;
+  std::vector<std::int64_t> truth_ids, track_ids;
+  for (const std::int64_t frame : scored) {
+    truth_points.clear();
+    truth_ids.clear();
+    track_points.clear();
+    track_ids.clear();
+    if (const auto t = truth.find(frame); t != truth.end()) {
+      for (const FloorPointRow& row : t->second) {
+        truth_points.push_back(row.point);
+        truth_ids.push_back(*row.id);
+      }
+    }
+    if (const auto t = tracks.find(frame); t != tracks.end()) {
+      for (const FloorPointRow& row : t->second) {
+        track_points.push_back(row.point);
+        track_ids.push_back(*row.id);
+      }
+    }
+    scorer.addFrame(truth_points, truth_ids, track_points, track_ids);
+  }
+  const TrackScore s = scorer.score();
+  if (o.json) {
+    const nlohmann::json out = {
+        {"frames", s.frames}, {"truth", s.truth},       {"tracks", s.tracks},
+        {"pairs", s.pairs},   {"switches", s.switches}, {"id_pairs", s.id_pairs},
+        {"mota", s.mota()},   {"idf1", s.idf1()},       {"gate_m", o.gate_m}};
+    std::printf("%s\n", out.dump().c_str());
+    return kExitOk;
+  }
+  std::printf("scored %zu frames: %zu truth points, %zu track points, %zu paired within %.2f m\n",
+              s.frames, s.truth, s.tracks, s.pairs, o.gate_m);
+  std::printf("MOTA       %7.2f %%   (misses %zu, false positives %zu, identity switches %zu)\n",
+              100.0 * s.mota(), s.truth - s.pairs, s.tracks - s.pairs, s.switches);
+  std::printf("IDF1       %7.2f %%   (%zu points on identities paired once for the sequence)\n",
+              100.0 * s.idf1(), s.id_pairs);
+  return kExitOk;
+}
+
 int runScore(const ScoreOptions& o) {
+  if (o.detections.empty() == o.tracks.empty()) {
+    throw InputError("", 0, "--detections", "give --detections or --tracks, one of them");
+  }
+  if (!o.tracks.empty()) return runTrackScore(o);
   const Frames truth = byFrame(readFloorPointsCsv(o.truth, "truth"));
   const Frames found = byFrame(readFloorPointsCsv(o.detections, "detections"));
   // The frames scored: those the truth names, and with --frames every frame from 0 (a frame
@@ -144,13 +209,18 @@ Command addScoreCommand(CLI::App& app) {
       "1 - distance / gate.\n"
       "Both files are CSV with a header naming the columns frame, x_m and y_m (others, such as "
       "area_m2 and score, are left alone); frame is the frame set's index from 0. "
-      "The frames scored are those the truth names (and with --frames N, frames 0 to N-1).\n\n"
+      "The frames scored are those the truth names (and with --frames N, frames 0 to N-1).\n"
+      "With --tracks: MOTA = 1 - (misses + false positives + identity switches) / truth points "
+      "(last frame's pairs kept while within the gate), and IDF1, each truth identity paired "
+      "once for the whole sequence with the track that shares the most frames with it.\n\n"
       "Example (EPFL Terrace's ground truth, docs/detection.md):\n"
       "  occmap truth --epfl ../shared/data/epfl-terrace/gt.txt --out truth.csv\n"
       "  occmap score --truth truth.csv --detections detections.csv --frames 10");
   command->add_option("--truth", options->truth, "Truth CSV: frame,x_m,y_m[,...]")->required();
-  command->add_option("--detections", options->detections, "Detections CSV: frame,x_m,y_m[,...]")
-      ->required();
+  command->add_option("--detections", options->detections, "Detections CSV: frame,x_m,y_m[,...]");
+  command->add_option("--tracks", options->tracks,
+                      "Instead: tracks CSV (frame,track_id,x_m,y_m[,...]) against a truth with an "
+                      "id column: MOTA and IDF1");
   command->add_option("--gate-m", options->gate_m, "Largest distance of a pair, metres")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

@@ -1,0 +1,119 @@
+#include "core/tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+
+namespace occmap {
+
+Tracker::Tracker(const TrackerSettings& settings) : settings_(settings) {
+  if (!(settings.gate_m > 0) || !(settings.position_noise_m > 0) ||
+      !(settings.acceleration_m_s2 >= 0) || settings.confirm_hits < 1 ||
+      !(settings.lost_after_s > 0)) {
+    throw std::invalid_argument("Tracker: gate, noise and times must be positive");
+  }
+}
+
+void Tracker::predict(State& state, double dt) const {
+  Eigen::Matrix4d f = Eigen::Matrix4d::Identity();
+  f(0, 2) = dt;
+  f(1, 3) = dt;
+  // White acceleration: the discrete process noise of a constant-velocity model.
+  const double q = settings_.acceleration_m_s2 * settings_.acceleration_m_s2;
+  const double dt2 = dt * dt, dt3 = dt2 * dt / 2, dt4 = dt2 * dt2 / 4;
+  Eigen::Matrix4d noise = Eigen::Matrix4d::Zero();
+  for (int axis = 0; axis < 2; ++axis) {
+    noise(axis, axis) = dt4 * q;
+    noise(axis, axis + 2) = noise(axis + 2, axis) = dt3 * q;
+    noise(axis + 2, axis + 2) = dt2 * q;
+  }
+  state.x = f * state.x;
+  state.p = f * state.p * f.transpose() + noise;
+}
+
+void Tracker::correct(State& state, const Detection& detection, double time_s) const {
+  Eigen::Matrix<double, 2, 4> h = Eigen::Matrix<double, 2, 4>::Zero();
+  h(0, 0) = 1;
+  h(1, 1) = 1;
+  const double r = settings_.position_noise_m * settings_.position_noise_m;
+  const Eigen::Matrix2d s = h * state.p * h.transpose() + Eigen::Matrix2d::Identity() * r;
+  const Eigen::Matrix<double, 4, 2> gain = state.p * h.transpose() * s.inverse();
+  const Eigen::Vector2d innovation(detection.x_m - state.x(0), detection.y_m - state.x(1));
+  state.x += gain * innovation;
+  state.p = (Eigen::Matrix4d::Identity() - gain * h) * state.p;
+  state.track.area_m2 = detection.area_m2;
+  state.track.seen = true;
+  state.last_s = time_s;
+  ++state.hits;
+}
+
+const std::vector<Track>& Tracker::update(std::span<const Detection> detections, double time_s) {
+  const double dt = started_ ? time_s - time_s_ : 0.0;
+  if (dt < 0) throw std::invalid_argument("Tracker: time went back");
+  started_ = true;
+  time_s_ = time_s;
+  for (State& state : states_) {
+    predict(state, dt);
+    state.track.seen = false;
+  }
+  // Detections to predicted tracks: the most pairs within the gate, then the least distance.
+  cost_.resize(states_.size() * detections.size());
+  for (std::size_t t = 0; t < states_.size(); ++t) {
+    for (std::size_t d = 0; d < detections.size(); ++d) {
+      cost_[t * detections.size() + d] =
+          std::hypot(detections[d].x_m - states_[t].x(0), detections[d].y_m - states_[t].x(1));
+    }
+  }
+  const std::vector<int>& pairs =
+      assignment_.solve(cost_, states_.size(), detections.size(), settings_.gate_m);
+  used_.assign(detections.size(), 0);
+  for (std::size_t t = 0; t < states_.size(); ++t) {
+    if (pairs[t] < 0) continue;
+    used_[static_cast<std::size_t>(pairs[t])] = 1;
+    correct(states_[t], detections[static_cast<std::size_t>(pairs[t])], time_s);
+  }
+  // Tracks end: tentative ones not confirmed in time, any not seen for lost_after_s.
+  std::erase_if(states_, [&](const State& state) {
+    const bool unconfirmed_too_long =
+        !state.track.confirmed && time_s - state.first_s > settings_.confirm_within_s;
+    return time_s - state.last_s > settings_.lost_after_s || unconfirmed_too_long;
+  });
+  for (State& state : states_) {
+    if (!state.track.confirmed && state.hits >= settings_.confirm_hits) {
+      state.track.confirmed = true;
+      state.track.id = next_id_++;
+    }
+  }
+  // New tentative tracks, at rest where they were found, their velocity as uncertain as a
+  // walk (2 m/s).
+  for (std::size_t d = 0; d < detections.size(); ++d) {
+    if (used_[d] != 0) continue;
+    State state;
+    state.x << detections[d].x_m, detections[d].y_m, 0.0, 0.0;
+    const double r = settings_.position_noise_m * settings_.position_noise_m;
+    state.p = Eigen::Vector4d(r, r, 4.0, 4.0).asDiagonal();
+    state.first_s = state.last_s = time_s;
+    state.hits = 1;
+    state.track.area_m2 = detections[d].area_m2;
+    state.track.seen = true;
+    if (settings_.confirm_hits <= 1) {
+      state.track.confirmed = true;
+      state.track.id = next_id_++;
+    }
+    states_.push_back(state);
+  }
+  out_.clear();
+  for (State& state : states_) {
+    if (!state.track.confirmed) continue;
+    state.track.x_m = state.x(0);
+    state.track.y_m = state.x(1);
+    state.track.vx_m_s = state.x(2);
+    state.track.vy_m_s = state.x(3);
+    out_.push_back(state.track);
+  }
+  return out_;
+}
+
+}  // namespace occmap

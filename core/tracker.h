@@ -1,0 +1,77 @@
+#pragma once
+// People followed from map to map (issue 14, docs/detection.md): tracking in the map's space, as
+// the paper's future work has it, where "the object of interest maintains a constant size" and no
+// hand-over between cameras is needed.
+// Each track is a constant-velocity Kalman filter on the floor (state x, y, vx, vy; white
+// acceleration noise); each map's detections are given to the predicted tracks by the optimal
+// assignment (core/assignment.h) under a gate; a detection given to no track starts a tentative
+// one, which is confirmed after `confirm_hits` detections within `confirm_within_s`; a track that
+// gets no detection coasts on its velocity and is ended after `lost_after_s` (two seconds: a
+// person hidden behind another for that long keeps their identity).
+// Time is passed in with each map: no clock is read, so the tests need not sleep. No I/O, no
+// threads; nothing is allocated per map once the track count has been reached.
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/assignment.h"
+#include "core/footprints.h"
+
+namespace occmap {
+
+struct TrackerSettings {
+  double gate_m = 0.75;            // the farthest a detection may be from a track's prediction
+  double position_noise_m = 0.15;  // a detection's error, standard deviation
+  double acceleration_m_s2 = 2.0;  // how fast people change their velocity, standard deviation
+  int confirm_hits = 3;            // detections before a track is reported
+  double confirm_within_s = 1.0;   // ... within this long of its first
+  double lost_after_s = 2.0;       // a track with no detection for this long ends
+};
+
+struct Track {
+  std::uint32_t id = 0;  // from 1, never reused
+  double x_m = 0.0, y_m = 0.0;
+  double vx_m_s = 0.0, vy_m_s = 0.0;
+  double area_m2 = 0.0;  // the last detection's
+  bool confirmed = false;
+  bool seen = false;  // whether this map's detections had it
+};
+
+class Tracker {
+ public:
+  explicit Tracker(const TrackerSettings& settings = {});
+
+  // One map's detections, taken at time_s (seconds, any origin, not decreasing). Returns the
+  // confirmed tracks, valid until the next call.
+  const std::vector<Track>& update(std::span<const Detection> detections, double time_s);
+
+  std::size_t liveTracks() const { return states_.size(); }
+
+ private:
+  struct State {
+    Track track;
+    Eigen::Vector4d x;     // x, y, vx, vy
+    Eigen::Matrix4d p;     // its covariance
+    double first_s = 0.0;  // first detection
+    double last_s = 0.0;   // last detection
+    int hits = 0;
+  };
+  void predict(State& state, double dt) const;
+  void correct(State& state, const Detection& detection, double time_s) const;
+
+  TrackerSettings settings_;
+  std::vector<State> states_;
+  std::vector<Track> out_;
+  std::vector<double> cost_;
+  std::vector<char> used_;
+  Assignment assignment_;
+  std::uint32_t next_id_ = 1;
+  double time_s_ = 0.0;
+  bool started_ = false;
+};
+
+}  // namespace occmap

@@ -1,0 +1,129 @@
+// People followed on the floor (core/tracker.h) and the scores of tracks (core/track_score.h).
+#include "core/tracker.h"
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/track_score.h"
+
+namespace occmap {
+namespace {
+
+struct Walker {
+  std::int64_t id;
+  double x0, y0, vx, vy;
+  double hidden_from_s = 1e9, hidden_until_s = -1;  // no detection in between
+  FloorPoint at(double t) const { return {x0 + vx * t, y0 + vy * t}; }
+  bool hidden(double t) const { return t >= hidden_from_s && t < hidden_until_s; }
+};
+
+struct Followed {
+  TrackScore score;
+  std::vector<std::vector<Track>> tracks;  // per frame
+};
+
+// 10 maps a second for `seconds`, detections with 5 cm of noise, the tracker's output scored.
+Followed follow(const std::vector<Walker>& walkers, double seconds, Tracker& tracker,
+                std::vector<Detection> extra = {}) {
+  std::mt19937_64 rng(1);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  TrackScorer scorer(0.5);
+  Followed run;
+  for (int frame = 0; frame <= static_cast<int>(seconds * 10); ++frame) {
+    const double t = frame / 10.0;
+    std::vector<Detection> detections;
+    std::vector<FloorPoint> truth;
+    std::vector<std::int64_t> truth_ids;
+    for (const Walker& w : walkers) {
+      const FloorPoint p = w.at(t);
+      truth.push_back(p);
+      truth_ids.push_back(w.id);
+      if (!w.hidden(t)) detections.push_back({p.x_m + noise(rng), p.y_m + noise(rng), 0.2, 0.5});
+    }
+    if (frame == 20) detections.insert(detections.end(), extra.begin(), extra.end());
+    const std::vector<Track>& tracks = tracker.update(detections, t);
+    run.tracks.push_back(tracks);
+    std::vector<FloorPoint> points;
+    std::vector<std::int64_t> ids;
+    for (const Track& track : tracks) {
+      points.push_back({track.x_m, track.y_m});
+      ids.push_back(track.id);
+    }
+    scorer.addFrame(truth, truth_ids, points, ids);
+  }
+  run.score = scorer.score();
+  return run;
+}
+
+TEST(Tracker, TwoPeopleCrossingWhileOneIsHiddenKeepTheirIdentities) {
+  // Walking toward each other at 1 m/s, 0.6 m apart sideways; the first unseen for 1.5 s around
+  // the crossing (behind the other, as cameras see it).
+  const std::vector<Walker> walkers = {{1, 0.0, 0.0, 1.0, 0.0, 3.5, 5.0}, {2, 8.0, 0.6, -1.0, 0.0}};
+  Tracker tracker;
+  const Followed run = follow(walkers, 8.0, tracker);
+  EXPECT_EQ(run.score.switches, 0u);
+  EXPECT_GE(run.score.mota(), 0.9) << "pairs " << run.score.pairs << " of " << run.score.truth;
+  EXPECT_GE(run.score.idf1(), 0.9);
+  // The one followed before the crossing is the one followed after it.
+  const Track* before = nullptr;
+  for (const Track& t : run.tracks[30]) {
+    if (std::abs(t.y_m) < 0.3) before = &t;
+  }
+  ASSERT_NE(before, nullptr);
+  bool same_after = false;
+  for (const Track& t : run.tracks[70]) same_after |= t.id == before->id && std::abs(t.y_m) < 0.3;
+  EXPECT_TRUE(same_after) << "the hidden walker lost their identity";
+  // Its velocity, from positions alone.
+  for (const Track& t : run.tracks[80]) {
+    const double expected = std::abs(t.y_m) < 0.3 ? 1.0 : -1.0;
+    EXPECT_NEAR(t.vx_m_s, expected, 0.15);
+    EXPECT_NEAR(t.vy_m_s, 0.0, 0.15);
+  }
+}
+
+TEST(Tracker, HiddenLongerThanTwoSecondsIsSomeoneNew) {
+  const std::vector<Walker> walkers = {{1, 0.0, 0.0, 0.5, 0.0, 2.0, 4.5}};
+  Tracker tracker;
+  const Followed run = follow(walkers, 6.0, tracker);
+  EXPECT_FALSE(run.tracks[19].empty());
+  EXPECT_TRUE(run.tracks[44].empty()) << "ended 2 s after its last detection";
+  ASSERT_FALSE(run.tracks[60].empty());
+  EXPECT_NE(run.tracks[60][0].id, run.tracks[19][0].id);
+}
+
+TEST(Tracker, OneStrayDetectionIsNoTrack) {
+  Tracker tracker;
+  const Followed run = follow({{1, 0.0, 0.0, 0.0, 0.0}}, 4.0, tracker, {{3.0, 3.0, 0.2, 0.5}});
+  for (const std::vector<Track>& tracks : run.tracks) EXPECT_LE(tracks.size(), 1u);
+  EXPECT_EQ(run.score.tracks, run.score.pairs) << "no false positive";
+  EXPECT_THROW(tracker.update({}, 1.0), std::invalid_argument) << "time went back";
+}
+
+TEST(TrackScore, CountsASwitchAndPairsIdentitiesOnceForIdf1) {
+  TrackScorer scorer(0.5);
+  const std::vector<std::int64_t> person = {7};
+  const std::vector<FloorPoint> here = {{0, 0}};
+  // Frames 1-3 followed by track 1, frames 4-5 by track 2: one switch, 5 pairs.
+  for (int f = 0; f < 5; ++f) {
+    const std::vector<std::int64_t> track = {f < 3 ? 1 : 2};
+    scorer.addFrame(here, person, here, track);
+  }
+  // Frame 6: nobody followed (a miss); frame 7: a track where nobody is (a false positive).
+  scorer.addFrame(here, person, {}, {});
+  scorer.addFrame({}, {}, std::vector<FloorPoint>{{5, 5}}, std::vector<std::int64_t>{3});
+  const TrackScore s = scorer.score();
+  EXPECT_EQ(s.truth, 6u);
+  EXPECT_EQ(s.tracks, 6u);
+  EXPECT_EQ(s.pairs, 5u);
+  EXPECT_EQ(s.switches, 1u);
+  EXPECT_NEAR(s.mota(), 1.0 - (1.0 + 1.0 + 1.0) / 6.0, 1e-12);
+  // Identity 7 is paired with track 1 (3 frames together, more than track 2's 2): IDTP 3.
+  EXPECT_EQ(s.id_pairs, 3u);
+  EXPECT_NEAR(s.idf1(), 2.0 * 3.0 / 12.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace occmap
