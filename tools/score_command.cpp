@@ -40,6 +40,21 @@ Frames byFrame(const std::vector<FloorPointRow>& rows) {
   return frames;
 }
 
+// The frames scored: those the truth names, and with --frames every frame from 0 (a frame
+// without truth rows then has nobody in it).
+template <class ByFrame>
+std::set<std::int64_t> scoredFrames(const ByFrame& truth, const ScoreOptions& o) {
+  std::set<std::int64_t> scored;
+  for (const auto& entry : truth) scored.insert(entry.first);
+  if (o.frames) {
+    for (std::int64_t frame = 0; frame < *o.frames; ++frame) scored.insert(frame);
+  }
+  if (scored.empty()) {
+    throw InputError(o.truth, 0, "", "has no rows and --frames was not given: nothing to score");
+  }
+  return scored;
+}
+
 // Tracks against a truth with identities: MOTA and IDF1 over the frames the truth names (or
 // 0..N-1).
 int runTrackScore(const ScoreOptions& o) {
@@ -51,14 +66,7 @@ int runTrackScore(const ScoreOptions& o) {
   for (const FloorPointRow& row : readFloorPointsCsv(o.tracks, "tracks", "track_id")) {
     tracks[row.frame].push_back(row);
   }
-  std::set<std::int64_t> scored;
-  for (const auto& [frame, rows] : truth) scored.insert(frame);
-  if (o.frames) {
-    for (std::int64_t frame = 0; frame < *o.frames; ++frame) scored.insert(frame);
-  }
-  if (scored.empty()) {
-    throw InputError(o.truth, 0, "", "has no rows and --frames was not given: nothing to score");
-  }
+  const std::set<std::int64_t> scored = scoredFrames(truth, o);
   TrackScorer scorer(o.gate_m);
   std::vector<FloorPoint> truth_points, track_points;
   std::vector<std::int64_t> truth_ids, track_ids;
@@ -106,16 +114,7 @@ int runScore(const ScoreOptions& o) {
   if (!o.tracks.empty()) return runTrackScore(o);
   const Frames truth = byFrame(readFloorPointsCsv(o.truth, "truth"));
   const Frames found = byFrame(readFloorPointsCsv(o.detections, "detections"));
-  // The frames scored: those the truth names, and with --frames every frame from 0 (a frame
-  // without truth rows then has nobody in it).
-  std::set<std::int64_t> scored;
-  for (const auto& [frame, points] : truth) scored.insert(frame);
-  if (o.frames) {
-    for (std::int64_t frame = 0; frame < *o.frames; ++frame) scored.insert(frame);
-  }
-  if (scored.empty()) {
-    throw InputError(o.truth, 0, "", "has no rows and --frames was not given: nothing to score");
-  }
+  const std::set<std::int64_t> scored = scoredFrames(truth, o);
   DetectionScorer scorer(o.gate_m);
   const std::vector<FloorPoint> none;
   for (const std::int64_t frame : scored) {
