@@ -248,8 +248,9 @@ TEST(Config, FootprintsAreReadAndChecked) {
   EXPECT_EQ(defaults.footprints.min_cameras, 2);
   EXPECT_DOUBLE_EQ(defaults.footprints.box_height_m, 1.75);
   const Config config = parseConfig(
-      kMinimal + "footprints: {box_width_m: 0.6, box_height_m: 1.2, step_m: 0.05, min_support: "
-                 "0.3, min_fresh: 0.15, min_cameras: 3, min_separation_m: 0.4}\n",
+      kMinimal +
+          "footprints: {box_width_m: 0.6, box_height_m: 1.2, step_m: 0.05, min_support: "
+          "0.3, min_fresh: 0.15, min_cameras: 3, min_separation_m: 0.4}\n",
       "/etc/occmap/occmap.yaml");
   EXPECT_DOUBLE_EQ(config.footprints.box_width_m, 0.6);
   EXPECT_DOUBLE_EQ(config.footprints.box_height_m, 1.2);
