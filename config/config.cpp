@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <span>
 #include <system_error>
 
@@ -40,8 +41,9 @@ namespace {
 
 using Keys = std::span<const std::string_view>;
 
-constexpr std::string_view kTopKeys[] = {"map",       "cameras", "fusion",
-                                         "transport", "control", "footprints"};
+constexpr std::string_view kTopKeys[] = {"map",     "cameras",    "fusion", "transport",
+                                         "control", "footprints", "zones"};
+constexpr std::string_view kZoneKeys[] = {"name", "polygon_m"};
 constexpr std::string_view kFootprintKeys[] = {"box_width_m", "box_height_m", "step_m",
                                                "min_support", "min_fresh",    "min_separation_m",
                                                "min_cameras"};
@@ -225,6 +227,7 @@ class ConfigReader {
            "top level must be a mapping with keys " + join(kTopKeys) + ", got " + describe(root));
     }
     Config config;
+    std::optional<Value> zones_value;
     bool has_map = false;
     bool has_cameras = false;
     for (const Entry& entry : entries(Value{root, "", lineOf(root)}, kTopKeys)) {
@@ -242,6 +245,8 @@ class ConfigReader {
         config.control = readControl(entry.value);
       } else if (entry.key == "footprints") {
         config.footprints = readFootprints(entry.value);
+      } else if (entry.key == "zones") {
+        zones_value = entry.value;
       }
     }
     if (!has_map) {
@@ -250,6 +255,8 @@ class ConfigReader {
            "512}` (metres, cells)");
     }
     if (!has_cameras) fail(lineOf(root), "cameras", "is missing; list the cameras to fuse");
+    // After the map, wherever they stand in the file: each must cover some of it.
+    if (zones_value) config.zones = readZones(*zones_value, config.map);
     return config;
   }
 
@@ -547,6 +554,49 @@ class ConfigReader {
            "control --make-key /etc/occmap/control.key` and name it here (docs/control.md)");
     }
     return control;
+  }
+
+  std::vector<ZoneSpec> readZones(const Value& value, const MapGeometry& map) const {
+    std::vector<ZoneSpec> zones;
+    for (const Value& item : list(value, "a list of zones {name, polygon_m}")) {
+      ZoneSpec zone;
+      int polygon_line = item.line;
+      std::string polygon_field = item.field + ".polygon_m";
+      for (const Entry& entry : entries(item, kZoneKeys)) {
+        if (entry.key == "name") {
+          zone.name = text(entry.value);
+          for (const ZoneSpec& other : zones) {
+            if (other.name == zone.name) {
+              fail(entry.value.line, entry.value.field,
+                   "zone name \"" + zone.name + "\" is used twice; give each zone its own name");
+            }
+          }
+        } else if (entry.key == "polygon_m") {
+          polygon_line = entry.value.line;
+          polygon_field = entry.value.field;
+          for (const Value& corner : list(entry.value, "a list of corners [x, y] in metres")) {
+            const std::vector<Value> xy = list(corner, "a corner [x, y] in metres");
+            if (xy.size() != 2) {
+              fail(corner.line, corner.field, "is not [x, y]: a corner has two coordinates");
+            }
+            zone.polygon_m.emplace_back(finite(xy[0]), finite(xy[1]));
+          }
+        }
+      }
+      if (zone.name.empty()) fail(item.line, item.field + ".name", "is missing; name the zone");
+      if (zone.polygon_m.size() < 3) {
+        fail(polygon_line, polygon_field,
+             "has " + std::to_string(zone.polygon_m.size()) +
+                 " corners; a zone is a polygon of at least 3, [[x, y], ...] in metres");
+      }
+      if (cellsInside(map, zone.polygon_m).empty()) {
+        fail(polygon_line, polygon_field,
+             "holds no cell centre of the map; a zone lies on the map (map: origin_m, "
+             "cell_size_m, width, height)");
+      }
+      zones.push_back(std::move(zone));
+    }
+    return zones;
   }
 
   std::vector<CameraConfig> readCameras(const Value& value) const {

@@ -13,6 +13,7 @@
 #include "core/footprints.h"
 #include "core/lighting_model.h"
 #include "core/map_geometry.h"
+#include "core/zones.h"
 
 namespace occmap {
 
@@ -86,6 +87,7 @@ struct Config {
   TransportSettings transport;
   ControlSettings control;
   FootprintSettings footprints;  // footprints: people and objects on the map (docs/detection.md)
+  std::vector<ZoneSpec> zones;   // zones: polygons with a state per map
   std::vector<CameraConfig> cameras;
 };
 

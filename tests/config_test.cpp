@@ -266,6 +266,26 @@ TEST(Config, FootprintsAreReadAndChecked) {
               "did you mean box_height_m?");
 }
 
+// zones: after the map wherever they stand, each on it, named once.
+TEST(Config, ZonesAreReadAndChecked) {
+  const Config config = parseConfig(
+      "zones:\n  - {name: robot-cell, polygon_m: [[0, 0], [1, 0], [1, 1]]}\n" + kMinimal,
+      "/etc/occmap/occmap.yaml");
+  ASSERT_EQ(config.zones.size(), 1u);
+  EXPECT_EQ(config.zones[0].name, "robot-cell");
+  EXPECT_EQ(config.zones[0].polygon_m.size(), 3u);
+  expectError(kMinimal + "zones:\n  - {name: a, polygon_m: [[0, 0], [1, 0]]}\n", 6,
+              "zones[0].polygon_m", "has 2 corners");
+  expectError(kMinimal + "zones:\n  - {name: a, polygon_m: [[90, 90], [91, 90], [91, 91]]}\n", 6,
+              "zones[0].polygon_m", "holds no cell centre of the map");
+  expectError(kMinimal +
+                  "zones:\n  - {name: a, polygon_m: [[0, 0], [1, 0], [1, 1]]}\n"
+                  "  - {name: a, polygon_m: [[0, 0], [1, 0], [1, 1]]}\n",
+              7, "zones[1].name", "is used twice");
+  expectError(kMinimal + "zones:\n  - {polygon_m: [[0, 0], [1, 0], [1, 1]]}\n", 6, "zones[0].name",
+              "is missing");
+}
+
 TEST(ConfigErrors, WrongTypesNameTheExpectedType) {
   expectError("map: {width: 512.5}\n" + kMinimal.substr(8), 1, "map.width", "whole number");
   expectError("map:\n  height: tall\n" + kMinimal.substr(8), 2, "map.height", "whole number");

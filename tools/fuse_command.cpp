@@ -24,6 +24,7 @@
 #include "core/repose.h"
 #include "core/track_score.h"
 #include "core/tracker.h"
+#include "core/zones.h"
 #include "tools/commands.h"
 #include "tools/pictures.h"
 #include "tools/progress.h"
@@ -271,25 +272,33 @@ int run(const FuseOptions& o) {
   }
   std::optional<FootprintDetector> detector;
   std::uint64_t detections = 0;
-  // Tracks: the time between frame sets is 1 / fps of the first camera (the scene's for the
-  // simulator, the config's `fps` for files://, 30 lacking one): off-line, frames are read as
+  // Tracks and zones: the time between frame sets is 1 / fps of the first camera (the scene's for
+  // the simulator, the config's `fps` for files://, 30 lacking one): off-line, frames are read as
   // fast as they go, so their read times are not their capture times.
   std::optional<Tracker> tracker;
   std::uint64_t track_rows = 0;
   TrackScorer track_score;
   double frame_s = 1.0 / 30.0;
-  if (tracks_file.is_open()) {
-    tracker.emplace();
-    if (cameras.front().sim != nullptr) {
-      frame_s = 1.0 / cameras.front().sim->fps();
-    } else if (config.cameras.front().fps) {
-      frame_s = 1.0 / *config.cameras.front().fps;
-    }
+  if (cameras.front().sim != nullptr) {
+    frame_s = 1.0 / cameras.front().sim->fps();
+  } else if (config.cameras.front().fps) {
+    frame_s = 1.0 / *config.cameras.front().fps;
   }
+  if (tracks_file.is_open()) tracker.emplace();
   const bool detect = detections_file.is_open() || tracker.has_value();
+  // Zones: their state per map, and with simulated cameras against the objects' footprints.
+  Zones zones(config.map, config.zones);
+  struct ZoneTally {
+    std::uint64_t maps[3] = {0, 0, 0};  // by ZoneState
+    std::uint64_t changes = 0;
+    std::uint64_t right = 0, judged = 0;  // against the truth, where not unseen
+    std::uint64_t free_over_object = 0;
+  };
+  std::vector<ZoneTally> zone_tally(zones.size());
   // This frame set's detections, and the simulator's people and objects (people among them).
   std::vector<FloorPoint> found, people, things, followed;
   std::vector<std::int64_t> thing_ids, followed_ids;
+  std::vector<ZoneState> zone_states;
   DetectionScorer people_score, object_score;
   if (detect) {
     std::vector<Camera> posed;
@@ -426,6 +435,13 @@ int run(const FuseOptions& o) {
       return kExitFailure;
     }
     for (const CellState state : map.cells) ++counts[static_cast<int>(state)];
+    zone_states.clear();
+    for (const ZoneStatus& status : zones.update(map.cells, static_cast<double>(maps) * frame_s)) {
+      const std::size_t z = zone_states.size();
+      zone_states.push_back(status.state);
+      ++zone_tally[z].maps[static_cast<int>(status.state)];
+      zone_tally[z].changes += status.changed_s == static_cast<double>(maps) * frame_s && maps > 0;
+    }
     if (truth_maker) {
       const double t = cameras.front().sim->lastTime();
       const std::vector<double> events = cameras.front().sim->scene().eventTimes();
@@ -436,6 +452,26 @@ int run(const FuseOptions& o) {
       scene.objectsAt(t, objects);
       scene.lightPatches(t, patches);
       score.add(map, truth_maker->at(objects), objects, patches, settled);
+      for (std::size_t z = 0; z < zones.size(); ++z) {
+        bool object_there = false;
+        for (const sim::SceneObject& object : objects) {
+          for (const std::uint32_t cell : zones.cells(z)) {
+            const int row = static_cast<int>(cell) / config.map.width;
+            if (object.solid.footprintContains(
+                    config.map.cellCentre(row, static_cast<int>(cell) - row * config.map.width))) {
+              object_there = true;
+              break;
+            }
+          }
+          if (object_there) break;
+        }
+        const ZoneState state = zone_states[z];
+        zone_tally[z].free_over_object += object_there && state == ZoneState::kFree;
+        if (state != ZoneState::kUnseen) {
+          ++zone_tally[z].judged;
+          zone_tally[z].right += object_there == (state == ZoneState::kOccupied);
+        }
+      }
       if (detector) {
         people.clear();
         things.clear();
@@ -563,6 +599,21 @@ int run(const FuseOptions& o) {
     std::printf("\n");
   }
   if (local_light.changed > 0) printLocalLight(local_light);
+  for (std::size_t z = 0; z < zones.size(); ++z) {
+    const ZoneTally& t = zone_tally[z];
+    std::printf("zone %s: occupied in %llu maps, free in %llu, unseen in %llu; changed %llu times",
+                config.zones[z].name.c_str(), static_cast<unsigned long long>(t.maps[1]),
+                static_cast<unsigned long long>(t.maps[0]),
+                static_cast<unsigned long long>(t.maps[2]),
+                static_cast<unsigned long long>(t.changes));
+    if (truth_maker) {
+      std::printf(
+          "; against the simulator's objects: right in %.2f %% of the maps where it is "
+          "seen, free while an object stands in it in %llu maps",
+          percent(t.right, t.judged), static_cast<unsigned long long>(t.free_over_object));
+    }
+    std::printf("\n");
+  }
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     const ViewReport& view = views[k];
     if (view.left_out == 0) continue;

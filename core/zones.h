@@ -1,0 +1,58 @@
+#pragma once
+// Zones on the floor (issue 14, docs/detection.md): polygons a site names, such as a robot's
+// cell, each with a state per map. A zone is OCCUPIED when any of its cells is occupied (the map
+// cannot vouch for the floor behind people either, so for a safety zone that counts), UNSEEN when
+// none is occupied but some cell is unseen, and FREE only when every cell is free. The time since
+// it last changed is kept; time is passed in with each map.
+// No I/O, no threads; nothing is allocated per map.
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/map_geometry.h"
+
+namespace occmap {
+
+struct ZoneSpec {
+  std::string name;
+  std::vector<Eigen::Vector2d> polygon_m;  // at least 3 corners, in order, in the map's frame
+};
+
+enum class ZoneState : std::uint8_t { kFree = 0, kOccupied = 1, kUnseen = 2 };
+std::string_view zoneStateName(ZoneState state);
+
+struct ZoneStatus {
+  ZoneState state = ZoneState::kUnseen;
+  double changed_s = 0.0;  // when it took this state (the first map's time at first)
+  std::size_t occupied_cells = 0;
+  std::size_t unseen_cells = 0;
+};
+
+// The map cells whose centres lie inside the polygon (even-odd rule).
+std::vector<std::uint32_t> cellsInside(const MapGeometry& map,
+                                       std::span<const Eigen::Vector2d> polygon_m);
+
+class Zones {
+ public:
+  // Throws std::invalid_argument naming a zone with fewer than 3 corners or no cell of the map.
+  Zones(const MapGeometry& map, std::span<const ZoneSpec> zones);
+
+  // One map, at time_s (seconds, not decreasing). Valid until the next call.
+  const std::vector<ZoneStatus>& update(std::span<const CellState> cells, double time_s);
+
+  std::size_t size() const { return cells_.size(); }
+  std::span<const std::uint32_t> cells(std::size_t zone) const { return cells_[zone]; }
+
+ private:
+  std::size_t cell_count_;
+  std::vector<std::vector<std::uint32_t>> cells_;
+  std::vector<ZoneStatus> status_;
+  bool started_ = false;
+};
+
+}  // namespace occmap
