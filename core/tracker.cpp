@@ -106,7 +106,7 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
   }
   out_.clear();
   for (State& state : states_) {
-    if (!state.track.confirmed) continue;
+    if (!state.track.confirmed || time_s - state.last_s > settings_.reported_unseen_s) continue;
     state.track.x_m = state.x(0);
     state.track.y_m = state.x(1);
     state.track.vx_m_s = state.x(2);

@@ -30,6 +30,10 @@ struct TrackerSettings {
   int confirm_hits = 3;            // detections before a track is reported
   double confirm_within_s = 1.0;   // ... within this long of its first
   double lost_after_s = 2.0;       // a track with no detection for this long ends
+  // A track with no detection for longer is kept (its identity waits for the person to come out
+  // from behind someone) but not reported: where it coasts is a guess. Measured on room-crowd's
+  // first 300 maps: reported for 0 / 0.2 / 0.5 / 2 s unseen, MOTA 59 / 63 / 57 / 40 %.
+  double reported_unseen_s = 0.2;
 };
 
 struct Track {
