@@ -48,20 +48,16 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   // the camera does not see the place), before the blocks are chosen.
   std::vector<std::array<double, 4>> pixel_boxes;
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::vector<Eigen::Vector3d> centres;
+  for (const Camera& camera : cameras) centres.push_back(camera.centreMetres());
   for (double y = map.origin_y_m + step / 2; y < map.origin_y_m + map_height_m; y += step) {
     for (double x = map.origin_x_m + step / 2; x < map.origin_x_m + map_width_m; x += step) {
-      const double reach = settings.box_width_m / 4;
-      const auto cellOf = [&](double metres, double origin) {
-        return static_cast<int>(std::floor((metres - origin) / map.cell_size_m));
-      };
-      Candidate candidate{x,
-                          y,
-                          std::clamp(cellOf(y - reach, map.origin_y_m), 0, map.height),
-                          std::clamp(cellOf(x - reach, map.origin_x_m), 0, map.width),
-                          std::clamp(cellOf(y + reach, map.origin_y_m) + 1, 0, map.height),
-                          std::clamp(cellOf(x + reach, map.origin_x_m) + 1, 0, map.width),
-                          pixel_boxes.size()};
-      if (candidate.row1 <= candidate.row0 || candidate.column1 <= candidate.column0) continue;
+      const Candidate candidate{x, y, cellsWithin(x, y, settings.box_width_m / 4),
+                                pixel_boxes.size()};
+      if (candidate.near.row1 <= candidate.near.row0 ||
+          candidate.near.column1 <= candidate.near.column0) {
+        continue;
+      }
       bool any = false;
       for (std::size_t k = 0; k < cameras.size(); ++k) {
         const Camera& camera = cameras[k];
@@ -70,7 +66,7 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
         // A person's box as the camera sees it: the upright rectangle, box_width_m wide and
         // box_height_m tall, standing at the place and facing the camera (the rectangle bounding
         // a 3D box's corners is up to 1.4 times wider than any person seen from an angle).
-        const Eigen::Vector3d centre = camera.centreMetres();
+        const Eigen::Vector3d& centre = centres[k];
         Eigen::Vector2d across(y - centre.y(), centre.x() - x);  // across the line of sight
         const double length = across.norm();
         const std::optional<Eigen::Vector2d> foot = camera.worldToStream({x, y, 0.0});
@@ -162,6 +158,21 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   alive_.reserve(candidates_.size());
 }
 
+FootprintDetector::CellRange FootprintDetector::cellsWithin(double x_m, double y_m,
+                                                            double reach_m) const {
+  const auto cellOf = [&](double metres, double origin) {
+    return static_cast<int>(std::floor((metres - origin) / map_.cell_size_m));
+  };
+  return {std::clamp(cellOf(y_m - reach_m, map_.origin_y_m), 0, map_.height),
+          std::clamp(cellOf(x_m - reach_m, map_.origin_x_m), 0, map_.width),
+          std::clamp(cellOf(y_m + reach_m, map_.origin_y_m) + 1, 0, map_.height),
+          std::clamp(cellOf(x_m + reach_m, map_.origin_x_m) + 1, 0, map_.width)};
+}
+
+std::uint32_t FootprintDetector::occupiedWithin(const CellRange& range) const {
+  return rectangleSum(occupied_, map_.width, range.column0, range.row0, range.column1, range.row1);
+}
+
 FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c) const {
   const Candidate& candidate = candidates_[c];
   Evidence e;
@@ -227,45 +238,6 @@ void FootprintDetector::markExplained(std::size_t c) {
   }
 }
 
-double FootprintDetector::freshBesideTheOthers(std::size_t i) {
-  // Within detection i's own boxes only (a few thousand blocks), not over whole images: the
-  // blocks that another kept detection's box covers are explained.
-  const Candidate& candidate = candidates_[chosen_[i]];
-  double fresh = 0.0;
-  int cameras = 0;
-  for (std::size_t k = 0; k < planes_.size(); ++k) {
-    const Box& box = boxes_[candidate.boxes + k];
-    if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
-    const CameraPlane& plane = planes_[k];
-    const int across = box.u1 - box.u0;
-    covered_.assign(static_cast<std::size_t>(across) * static_cast<std::size_t>(box.v1 - box.v0),
-                    0);
-    for (std::size_t j = 0; j < chosen_.size(); ++j) {
-      if (j == i || kept_[j] == 0) continue;
-      const Box& other = boxes_[candidates_[chosen_[j]].boxes + k];
-      if (other.u0 == kNotSeen) continue;
-      const int u0 = std::max(box.u0, other.u0), u1 = std::min(box.u1, other.u1);
-      const int v0 = std::max(box.v0, other.v0), v1 = std::min(box.v1, other.v1);
-      for (int v = v0; v < v1; ++v) {
-        std::fill_n(covered_.begin() + (v - box.v0) * across + (u0 - box.u0), std::max(0, u1 - u0),
-                    std::uint8_t{1});
-      }
-    }
-    double unexplained = 0.0;
-    for (int v = box.v0; v < box.v1; ++v) {
-      const std::uint32_t* counts =
-          plane.counts.data() + static_cast<std::size_t>(v) * plane.across;
-      const std::uint8_t* covered = covered_.data() + (v - box.v0) * across;
-      for (int u = box.u0; u < box.u1; ++u) {
-        if (covered[u - box.u0] == 0) unexplained += counts[u];
-      }
-    }
-    fresh += unexplained / static_cast<double>(box.pixels);
-    ++cameras;
-  }
-  return cameras == 0 ? 0.0 : fresh / cameras;
-}
-
 const std::vector<Detection>& FootprintDetector::detect(
     std::span<const std::uint8_t* const> changed, std::span<const CellState> cells) {
   if (changed.size() != planes_.size()) {
@@ -324,11 +296,7 @@ const std::vector<Detection>& FootprintDetector::detect(
   }
   alive_.clear();
   for (std::size_t c = 0; c < candidates_.size(); ++c) {
-    const Candidate& candidate = candidates_[c];
-    if (rectangleSum(occupied_, map_.width, candidate.column0, candidate.row0, candidate.column1,
-                     candidate.row1) > 0) {
-      alive_.push_back(c);
-    }
+    if (occupiedWithin(candidates_[c].near) > 0) alive_.push_back(c);
   }
   const double separation2 = settings_.min_separation_m * settings_.min_separation_m;
   const double half = settings_.box_width_m / 2;
@@ -358,19 +326,10 @@ const std::vector<Detection>& FootprintDetector::detect(
     alive_.resize(still);
     if (best_rank < 0) break;
     const Candidate& found = candidates_[best];
-    Detection detection{found.x_m, found.y_m, 0.0, best_evidence.support};
     // The footprint's area: the occupied cells under the box.
-    for (double y = found.y_m - half + map_.cell_size_m / 2; y < found.y_m + half;
-         y += map_.cell_size_m) {
-      for (double x = found.x_m - half + map_.cell_size_m / 2; x < found.x_m + half;
-           x += map_.cell_size_m) {
-        const std::optional<int> cell = map_.cellAt(x, y);
-        if (cell && cells[static_cast<std::size_t>(*cell)] == CellState::kOccupied) {
-          detection.area_m2 += map_.cell_size_m * map_.cell_size_m;
-        }
-      }
-    }
-    detections_.push_back(detection);
+    const double area_m2 = occupiedWithin(cellsWithin(found.x_m, found.y_m, half)) *
+                           map_.cell_size_m * map_.cell_size_m;
+    detections_.push_back({found.x_m, found.y_m, area_m2, best_evidence.support});
     chosen_.push_back(best);
     markExplained(best);
     std::erase_if(alive_, [&](std::size_t c) {
@@ -384,7 +343,11 @@ const std::vector<Detection>& FootprintDetector::detect(
   if (detections_.size() > 1) {
     kept_.assign(detections_.size(), 1);
     for (std::size_t i = detections_.size(); i-- > 0;) {
-      if (freshBesideTheOthers(i) < settings_.min_fresh) kept_[i] = 0;
+      forgetExplained();
+      for (std::size_t j = 0; j < chosen_.size(); ++j) {
+        if (j != i && kept_[j] != 0) markExplained(chosen_[j]);
+      }
+      if (evidence(chosen_[i]).fresh < settings_.min_fresh) kept_[i] = 0;
     }
     std::size_t out = 0;
     for (std::size_t i = 0; i < detections_.size(); ++i) {

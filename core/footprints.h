@@ -13,15 +13,16 @@
 // part of its cost).
 //
 // Per frame set: each camera's changed pixels (core/fusion_kernel.h's tile layout) and the map.
-// Candidates are the places on a grid whose map cell is occupied (the map says where nothing
-// stands: column carving keeps a person's own cells occupied). Each candidate's box (POM's
-// 0.5 x 0.5 x 1.75 m person) is, in each camera whose image has its foot point, the rectangle
-// bounding the box's eight corners. In camera k the candidate's support is the share of changed
-// pixels among the rectangle's pixels not yet explained; a camera where most of the rectangle is
-// explained already (the candidate hidden behind people found) abstains. A candidate is a
-// detection when every camera that does not abstain, and at least one, supports it by at least
-// min_support; of those the best supported is taken, its rectangles' changed pixels become
-// explained, and the rest are judged again.
+// Candidates are the places on a grid with an occupied map cell within a quarter of the box's
+// width (the map says where nothing stands: column carving keeps a person's own cells occupied).
+// Each candidate's box is, in each camera whose image has its foot point, the rectangle of an
+// upright board of POM's person (0.5 x 1.75 m) standing there and facing the camera. Its support
+// in a camera is the share of the box's pixels that changed; a candidate needs min_support from
+// every camera that sees it, and at least min_cameras of them. Of those, the one whose boxes hold
+// the largest share of changed pixels not yet explained (its fresh evidence, the mean over its
+// cameras) is taken, its boxes' changed pixels become explained, and the rest are judged again,
+// until none adds min_fresh; then each detection is judged again against what all the others
+// explain (docs/detection.md, "How people are found").
 // No I/O, no threads; buffers are made once, nothing is allocated per frame set once the
 // detections have their largest count.
 
@@ -59,8 +60,8 @@ struct FootprintSettings {
 struct Detection {
   double x_m = 0.0;
   double y_m = 0.0;
-  double area_m2 = 0.0;  // the occupied cells of the map under the box's footprint
-  double score = 0.0;    // the least support of a camera that did not abstain, 0 to 1
+  double area_m2 = 0.0;  // the occupied map cells that the box's footprint covers or touches
+  double score = 0.0;    // the least support of a camera that sees it, 0 to 1
 };
 
 class FootprintDetector {
@@ -72,8 +73,6 @@ class FootprintDetector {
   // then says nothing). `cells` is the map fused from them. Valid until the next call.
   const std::vector<Detection>& detect(std::span<const std::uint8_t* const> changed,
                                        std::span<const CellState> cells);
-
-  std::size_t candidateCount() const { return candidates_.size(); }
 
  private:
   struct Box {  // a candidate's rectangle in one camera: blocks [u0, u1) x [v0, v1)
@@ -93,11 +92,17 @@ class FootprintDetector {
     std::vector<Box> pieces;
   };
   static constexpr int kBlocksPerBox = 16;
+  // Map cells [row0, row1) x [column0, column1).
+  struct CellRange {
+    int row0, column0, row1, column1;
+  };
+  CellRange cellsWithin(double x_m, double y_m, double reach_m) const;
+  std::uint32_t occupiedWithin(const CellRange& range) const;
   struct Candidate {
     double x_m, y_m;
-    // The map cells [row0, row1) x [column0, column1) within a quarter of the box's width of its
-    // centre: the annotation's and the carving's slack. One of them must be occupied.
-    int row0, column0, row1, column1;
+    // The cells within a quarter of the box's width of its centre: the annotation's and the
+    // carving's slack. One of them must be occupied.
+    CellRange near;
     std::size_t boxes;  // first of its cameras_.size() entries in boxes_
   };
   static constexpr std::uint16_t kNotSeen = 0xffff;
@@ -111,8 +116,6 @@ class FootprintDetector {
   // The changed pixels of the candidate's boxes become explained.
   void markExplained(std::size_t candidate);
   void forgetExplained();
-  // The mean share of detection i's boxes changed and explained by no other kept detection.
-  double freshBesideTheOthers(std::size_t i);
 
   MapGeometry map_;
   FootprintSettings settings_;
@@ -125,8 +128,7 @@ class FootprintDetector {
   std::vector<Detection> detections_;
   std::vector<std::size_t> chosen_;  // the candidate of each detection
   std::vector<std::uint8_t> kept_;
-  std::vector<std::uint8_t> covered_;  // freshBesideTheOthers' scratch
-  std::vector<Box> fragments_, cut_;   // markExplained's
+  std::vector<Box> fragments_, cut_;  // markExplained's
 };
 
 }  // namespace occmap

@@ -27,6 +27,14 @@ constexpr lighting_steps::Usable kUsable{kDarkest, kBrightest, kSaturated};
 // 640 x 480 frame's 19 200); the gain is then the least-squares fit over all that agree with it.
 constexpr std::size_t kMedianStride = 4;
 
+// The share of the samples that agree with the light: of the usable ones and of those the light
+// clips as it says (which agree too: in a light that clips most of the view, what is left usable is
+// mostly what stands in it).
+double agreeingShare(std::size_t agreeing, std::size_t clipped, std::size_t usable) {
+  return static_cast<double>(agreeing + clipped) /
+         static_cast<double>(std::max<std::size_t>(1, usable + clipped));
+}
+
 // The log-ratio bin of every pair of grey levels, at [background << 8 | live]: ln(l + 0.5) -
 // ln(b + 0.5) in bins of kBins over [-ln 4, ln 4], or kUnusable for a pair that says nothing of
 // the gain (a background too dark or too bright, a live pixel black or clipped). One look-up per
@@ -157,11 +165,8 @@ void LightingModel::estimateGain(ImageView live) {
     return lighting_steps::agreement(samples_.data(), samples_.size(), static_cast<float>(gain),
                                      band(gain), kUsable);
   };
-  // What the light clips as it says agrees too: in a light that clips most of the view, what is
-  // left usable is mostly what stands in it.
   const auto share = [](const lighting_steps::Agreement& sums) {
-    return static_cast<double>(sums.agreeing + sums.clipped) /
-           static_cast<double>(std::max<std::size_t>(1, sums.usable + sums.clipped));
+    return agreeingShare(sums.agreeing, sums.clipped, sums.usable);
   };
   double judged_by = median;
   lighting_steps::Agreement sums = judge(median);
@@ -272,8 +277,7 @@ std::size_t LightingModel::explainLocally(ImageView corrected, int threshold,
       }
     }
   });
-  agreement_ = static_cast<double>(agreeing_ + clipped_ + explained_here) /
-               static_cast<double>(usable_ + clipped_);
+  agreement_ = agreeingShare(agreeing_ + explained_here, clipped_, usable_);
   explained_ = agreement_ >= settings_.min_agreement;
   return locally_explained_;
 }

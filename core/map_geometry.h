@@ -26,6 +26,11 @@ struct MapGeometry {
   Eigen::Vector2d cellCentre(int row, int column) const {
     return {origin_x_m + (column + 0.5) * cell_size_m, origin_y_m + (row + 0.5) * cell_size_m};
   }
+  // The centre of the cell at `cell` (row-major index, as index() gives it).
+  Eigen::Vector2d cellCentre(std::size_t cell) const {
+    const auto w = static_cast<std::size_t>(width);
+    return cellCentre(static_cast<int>(cell / w), static_cast<int>(cell % w));
+  }
   // The cell containing floor point (x, y), if it lies on the map.
   std::optional<int> cellAt(double x, double y) const;
 };

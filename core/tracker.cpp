@@ -44,7 +44,6 @@ void Tracker::correct(State& state, const Detection& detection, double time_s) c
   state.x += gain * innovation;
   state.p = (Eigen::Matrix4d::Identity() - gain * h) * state.p;
   state.track.area_m2 = detection.area_m2;
-  state.track.seen = true;
   state.last_s = time_s;
   ++state.hits;
 }
@@ -54,10 +53,7 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
   if (dt < 0) throw std::invalid_argument("Tracker: time went back");
   started_ = true;
   time_s_ = time_s;
-  for (State& state : states_) {
-    predict(state, dt);
-    state.track.seen = false;
-  }
+  for (State& state : states_) predict(state, dt);
   // Detections to predicted tracks: the most pairs within the gate, then the least distance.
   cost_.resize(states_.size() * detections.size());
   for (std::size_t t = 0; t < states_.size(); ++t) {
@@ -97,7 +93,6 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
     state.first_s = state.last_s = time_s;
     state.hits = 1;
     state.track.area_m2 = detections[d].area_m2;
-    state.track.seen = true;
     if (settings_.confirm_hits <= 1) {
       state.track.confirmed = true;
       state.track.id = next_id_++;

@@ -42,7 +42,6 @@ struct Track {
   double vx_m_s = 0.0, vy_m_s = 0.0;
   double area_m2 = 0.0;  // the last detection's
   bool confirmed = false;
-  bool seen = false;  // whether this map's detections had it
 };
 
 class Tracker {
@@ -52,8 +51,6 @@ class Tracker {
   // One map's detections, taken at time_s (seconds, any origin, not decreasing). Returns the
   // confirmed tracks, valid until the next call.
   const std::vector<Track>& update(std::span<const Detection> detections, double time_s);
-
-  std::size_t liveTracks() const { return states_.size(); }
 
  private:
   struct State {

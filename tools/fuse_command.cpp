@@ -3,7 +3,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -18,14 +17,10 @@
 #include "config/input_error.h"
 #include "config/rig.h"
 #include "core/changed_pixels.h"
-#include "core/detection_score.h"
-#include "core/footprints.h"
 #include "core/fusion_kernel.h"
 #include "core/repose.h"
-#include "core/track_score.h"
-#include "core/tracker.h"
-#include "core/zones.h"
 #include "tools/commands.h"
+#include "tools/offline_footprints.h"
 #include "tools/pictures.h"
 #include "tools/progress.h"
 #include "transport/status_text.h"
@@ -145,9 +140,7 @@ struct TruthScore {
         ++clear;
         free_clear += free ? 1 : 0;
         if (!free) {
-          const auto row = static_cast<int>(cell / static_cast<std::size_t>(map.geometry.width));
-          const auto column = static_cast<int>(cell % static_cast<std::size_t>(map.geometry.width));
-          const Eigen::Vector2d centre = map.geometry.cellCentre(row, column);
+          const Eigen::Vector2d centre = map.geometry.cellCentre(cell);
           const auto lit = [&](const sim::LightPatch& patch) { return patch.at(centre) != 1.0; };
           const auto near = [&](const sim::SceneObject& object) {
             return object.solid.footprintDistance(centre) <= NotFreed::kNear;
@@ -192,10 +185,6 @@ struct TruthScore {
   }
 };
 
-double percent(std::uint64_t part, std::uint64_t whole) {
-  return whole == 0 ? 0.0 : 100.0 * static_cast<double>(part) / static_cast<double>(whole);
-}
-
 // What the local light (core/local_light.h) made of the changed tiles of every camera and frame:
 // where a lamp or the sun is left changed, and why.
 void printLocalLight(const LocalLight::Tally& t) {
@@ -229,14 +218,6 @@ int run(const FuseOptions& o) {
       write_maps ? checkOutput(out, o.overwrite) : std::vector<fs::path>{};
   PreparedRig prepared = prepareRigWithProgress(config, o.command);
   if (write_maps) makeOutput(out, old_maps);
-  std::ofstream detections_file;
-  if (!o.detections.empty()) {
-    detections_file.open(o.detections);
-    if (!detections_file) {
-      throw InputError(o.detections, 0, "--out", "cannot write the detections file here");
-    }
-    detections_file << "frame,x_m,y_m,area_m2,score\n";
-  }
   Rig& rig = prepared.rig;
   const std::vector<CarveTable>& tables = prepared.tables;
   const double column_height = prepared.column_height_m;
@@ -264,47 +245,7 @@ int run(const FuseOptions& o) {
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     changed[k].assign(changedMaskBytes(cameras[k].source->width(), cameras[k].source->height()), 0);
   }
-  std::ofstream tracks_file;
-  if (!o.tracks.empty()) {
-    tracks_file.open(o.tracks);
-    if (!tracks_file) throw InputError(o.tracks, 0, "--out", "cannot write the tracks file here");
-    tracks_file << "frame,track_id,x_m,y_m,vx_m_s,vy_m_s,area_m2\n";
-  }
-  std::optional<FootprintDetector> detector;
-  std::uint64_t detections = 0;
-  // Tracks and zones: the time between frame sets is 1 / fps of the first camera (the scene's for
-  // the simulator, the config's `fps` for files://, 30 lacking one): off-line, frames are read as
-  // fast as they go, so their read times are not their capture times.
-  std::optional<Tracker> tracker;
-  std::uint64_t track_rows = 0;
-  TrackScorer track_score;
-  double frame_s = 1.0 / 30.0;
-  if (cameras.front().sim != nullptr) {
-    frame_s = 1.0 / cameras.front().sim->fps();
-  } else if (config.cameras.front().fps) {
-    frame_s = 1.0 / *config.cameras.front().fps;
-  }
-  if (tracks_file.is_open()) tracker.emplace();
-  const bool detect = detections_file.is_open() || tracker.has_value();
-  // Zones: their state per map, and with simulated cameras against the objects' footprints.
-  Zones zones(config.map, config.zones);
-  struct ZoneTally {
-    std::uint64_t maps[3] = {0, 0, 0};  // by ZoneState
-    std::uint64_t changes = 0;
-    std::uint64_t right = 0, judged = 0;  // against the truth, where not unseen
-    std::uint64_t free_over_object = 0;
-  };
-  std::vector<ZoneTally> zone_tally(zones.size());
-  // This frame set's detections, and the simulator's people and objects (people among them).
-  std::vector<FloorPoint> found, people, things, followed;
-  std::vector<std::int64_t> thing_ids, followed_ids;
-  std::vector<ZoneState> zone_states;
-  DetectionScorer people_score, object_score;
-  if (detect) {
-    std::vector<Camera> posed;
-    for (const RigCamera& camera : cameras) posed.push_back(*camera.camera);
-    detector.emplace(config.map, posed, config.footprints);
-  }
+  OfflineFootprints footprints(config, cameras, o.detections, o.tracks);
   std::vector<ChangedPixels> changed_pixels;
   for (const RigCamera& camera : cameras)
     changed_pixels.emplace_back(camera.lighting, *camera.camera);
@@ -399,33 +340,6 @@ int run(const FuseOptions& o) {
     }
     if (ended) break;
     kernel.fuse(masks, map.cells);
-    found.clear();
-    followed.clear();
-    followed_ids.clear();
-    if (detector) {
-      const std::vector<Detection>& detected = detector->detect(masks, map.cells);
-      for (const Detection& d : detected) {
-        found.push_back({d.x_m, d.y_m});
-        if (!detections_file.is_open()) continue;
-        char row[128];
-        std::snprintf(row, sizeof row, "%llu,%.3f,%.3f,%.4f,%.3f\n",
-                      static_cast<unsigned long long>(maps), d.x_m, d.y_m, d.area_m2, d.score);
-        detections_file << row;
-        ++detections;
-      }
-      if (tracker) {
-        for (const Track& t : tracker->update(detected, static_cast<double>(maps) * frame_s)) {
-          followed.push_back({t.x_m, t.y_m});
-          followed_ids.push_back(t.id);
-          char row[160];
-          std::snprintf(row, sizeof row, "%llu,%u,%.3f,%.3f,%.3f,%.3f,%.4f\n",
-                        static_cast<unsigned long long>(maps), t.id, t.x_m, t.y_m, t.vx_m_s,
-                        t.vy_m_s, t.area_m2);
-          tracks_file << row;
-          ++track_rows;
-        }
-      }
-    }
     char name[32];
     std::snprintf(name, sizeof name, "map_%06llu.png", static_cast<unsigned long long>(maps));
     std::string error;
@@ -435,13 +349,6 @@ int run(const FuseOptions& o) {
       return kExitFailure;
     }
     for (const CellState state : map.cells) ++counts[static_cast<int>(state)];
-    zone_states.clear();
-    for (const ZoneStatus& status : zones.update(map.cells, static_cast<double>(maps) * frame_s)) {
-      const std::size_t z = zone_states.size();
-      zone_states.push_back(status.state);
-      ++zone_tally[z].maps[static_cast<int>(status.state)];
-      zone_tally[z].changes += status.changed_s == static_cast<double>(maps) * frame_s && maps > 0;
-    }
     if (truth_maker) {
       const double t = cameras.front().sim->lastTime();
       const std::vector<double> events = cameras.front().sim->scene().eventTimes();
@@ -452,43 +359,8 @@ int run(const FuseOptions& o) {
       scene.objectsAt(t, objects);
       scene.lightPatches(t, patches);
       score.add(map, truth_maker->at(objects), objects, patches, settled);
-      for (std::size_t z = 0; z < zones.size(); ++z) {
-        bool object_there = false;
-        for (const sim::SceneObject& object : objects) {
-          for (const std::uint32_t cell : zones.cells(z)) {
-            const int row = static_cast<int>(cell) / config.map.width;
-            if (object.solid.footprintContains(
-                    config.map.cellCentre(row, static_cast<int>(cell) - row * config.map.width))) {
-              object_there = true;
-              break;
-            }
-          }
-          if (object_there) break;
-        }
-        const ZoneState state = zone_states[z];
-        zone_tally[z].free_over_object += object_there && state == ZoneState::kFree;
-        if (state != ZoneState::kUnseen) {
-          ++zone_tally[z].judged;
-          zone_tally[z].right += object_there == (state == ZoneState::kOccupied);
-        }
-      }
-      if (detector) {
-        people.clear();
-        things.clear();
-        thing_ids.clear();
-        for (std::size_t i = 0; i < objects.size(); ++i) {
-          const sim::SceneObject& object = objects[i];
-          const FloorPoint centre{object.solid.centre.x(), object.solid.centre.y()};
-          things.push_back(centre);
-          thing_ids.push_back(
-              static_cast<std::int64_t>(i));  // the scene's objects keep their order
-          if (object.kind == sim::ObjectKind::kPerson) people.push_back(centre);
-        }
-        if (tracker) track_score.addFrame(things, thing_ids, followed, followed_ids);
-        people_score.addFrame(people, found);
-        object_score.addFrame(things, found);
-      }
     }
+    footprints.add(maps, masks, map.cells, truth_maker ? &objects : nullptr);
     if (!o.snapshot.empty()) {
       last_images.clear();
       for (std::size_t k = 0; k < cameras.size(); ++k) {
@@ -514,44 +386,7 @@ int run(const FuseOptions& o) {
     return kExitFailure;
   }
   const std::uint64_t cells = maps * config.map.cellCount();
-  if (tracker) {
-    tracks_file.close();
-    if (!tracks_file) {
-      std::fprintf(stderr, "occmap %s: writing %s failed\n", o.command, o.tracks.c_str());
-      return kExitFailure;
-    }
-    std::printf("wrote %llu track rows on %llu maps to %s (%.1f maps/s, %.3f s between maps)\n",
-                static_cast<unsigned long long>(track_rows), static_cast<unsigned long long>(maps),
-                o.tracks.c_str(), static_cast<double>(maps) / seconds, frame_s);
-    if (truth_maker) {
-      const TrackScore s = track_score.score();
-      std::printf(
-          "against the simulator's objects and their identities (0.5 m gate): MOTA %.2f %%, IDF1 "
-          "%.2f %%, identity switches %zu (%zu object points, %zu track points)\n",
-          100 * s.mota(), 100 * s.idf1(), s.switches, s.truth, s.tracks);
-    }
-  }
-  if (detections_file.is_open()) {
-    detections_file.close();
-    if (!detections_file) {
-      std::fprintf(stderr, "occmap %s: writing %s failed\n", o.command, o.detections.c_str());
-      return kExitFailure;
-    }
-    std::printf("wrote %llu detections on %llu maps to %s (%.1f maps/s)\n",
-                static_cast<unsigned long long>(detections), static_cast<unsigned long long>(maps),
-                o.detections.c_str(), static_cast<double>(maps) / seconds);
-    if (truth_maker) {
-      const auto print = [](const char* what, const DetectionScore& s) {
-        std::printf(
-            "against the simulator's %s (0.5 m gate): MODA %.2f %%, MODP %.2f %%, precision "
-            "%.2f %%, recall %.2f %% (%zu of them over the maps, %zu detections)\n",
-            what, 100 * s.moda(), 100 * s.modp(), 100 * s.precision(), 100 * s.recall(), s.people,
-            s.detections);
-      };
-      print("objects, people among them", object_score.score());
-      print("people alone (objects found count as false positives)", people_score.score());
-    }
-  }
+  if (!footprints.finishFiles(o.command, maps, seconds)) return kExitFailure;
   if (write_maps)
     std::printf(
         "wrote %llu maps (%dx%d cells of %.3g m, column height %.3g m) to %s in %.1f s "
@@ -599,21 +434,7 @@ int run(const FuseOptions& o) {
     std::printf("\n");
   }
   if (local_light.changed > 0) printLocalLight(local_light);
-  for (std::size_t z = 0; z < zones.size(); ++z) {
-    const ZoneTally& t = zone_tally[z];
-    std::printf("zone %s: occupied in %llu maps, free in %llu, unseen in %llu; changed %llu times",
-                config.zones[z].name.c_str(), static_cast<unsigned long long>(t.maps[1]),
-                static_cast<unsigned long long>(t.maps[0]),
-                static_cast<unsigned long long>(t.maps[2]),
-                static_cast<unsigned long long>(t.changes));
-    if (truth_maker) {
-      std::printf(
-          "; against the simulator's objects: right in %.2f %% of the maps where it is "
-          "seen, free while an object stands in it in %llu maps",
-          percent(t.right, t.judged), static_cast<unsigned long long>(t.free_over_object));
-    }
-    std::printf("\n");
-  }
+  footprints.printZones();
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     const ViewReport& view = views[k];
     if (view.left_out == 0) continue;

@@ -10,6 +10,11 @@
 
 namespace occmap::tools {
 
+// A share for the summary lines the commands print at the end, in per cent (0 of nothing is 0).
+inline double percent(std::uint64_t part, std::uint64_t whole) {
+  return whole == 0 ? 0.0 : 100.0 * static_cast<double>(part) / static_cast<double>(whole);
+}
+
 // A one-line progress bar on stderr, drawn only when stderr is a terminal (logs and pipes stay
 // clean), at most ten times a second.
 class Progress {

@@ -32,20 +32,32 @@ struct ScoreOptions {
   bool json = false;
 };
 
-using Frames = std::map<std::int64_t, std::vector<FloorPoint>>;
+using Rows = std::map<std::int64_t, std::vector<FloorPointRow>>;
 
-Frames byFrame(const std::vector<FloorPointRow>& rows) {
-  Frames frames;
-  for (const FloorPointRow& row : rows) frames[row.frame].push_back(row.point);
+Rows byFrame(const std::vector<FloorPointRow>& rows) {
+  Rows frames;
+  for (const FloorPointRow& row : rows) frames[row.frame].push_back(row);
   return frames;
+}
+
+// The points of `frame`'s rows (and their ids, when asked for).
+void pointsAt(const Rows& rows, std::int64_t frame, std::vector<FloorPoint>& points,
+              std::vector<std::int64_t>* ids = nullptr) {
+  points.clear();
+  if (ids != nullptr) ids->clear();
+  const auto found = rows.find(frame);
+  if (found == rows.end()) return;
+  for (const FloorPointRow& row : found->second) {
+    points.push_back(row.point);
+    if (ids != nullptr) ids->push_back(*row.id);
+  }
 }
 
 // The frames scored: those the truth names, and with --frames every frame from 0 (a frame
 // without truth rows then has nobody in it).
-template <class ByFrame>
-std::set<std::int64_t> scoredFrames(const ByFrame& truth, const ScoreOptions& o) {
+std::set<std::int64_t> scoredFrames(const Rows& truth, const ScoreOptions& o) {
   std::set<std::int64_t> scored;
-  for (const auto& entry : truth) scored.insert(entry.first);
+  for (const auto& [frame, rows] : truth) scored.insert(frame);
   if (o.frames) {
     for (std::int64_t frame = 0; frame < *o.frames; ++frame) scored.insert(frame);
   }
@@ -55,46 +67,50 @@ std::set<std::int64_t> scoredFrames(const ByFrame& truth, const ScoreOptions& o)
   return scored;
 }
 
-// Tracks against a truth with identities: MOTA and IDF1 over the frames the truth names (or
-// 0..N-1).
+// Rows in frames not scored: counted and said, never dropped silently.
+struct LeftOut {
+  std::size_t rows = 0;
+  std::size_t frames = 0;
+};
+LeftOut leftOut(const Rows& rows, const std::set<std::int64_t>& scored) {
+  LeftOut out;
+  for (const auto& [frame, those] : rows) {
+    if (scored.count(frame) != 0) continue;
+    out.rows += those.size();
+    ++out.frames;
+  }
+  return out;
+}
+void printLeftOut(const LeftOut& left_out, const char* what) {
+  if (left_out.rows == 0) return;
+  std::printf(
+      "note: %zu %s in %zu frames that the truth does not name were not scored; --frames N "
+      "scores frames 0 to N-1, a frame without truth rows as one with nobody in it\n",
+      left_out.rows, what, left_out.frames);
+}
+
+// Tracks against a truth with identities: MOTA and IDF1.
 int runTrackScore(const ScoreOptions& o) {
-  using Rows = std::map<std::int64_t, std::vector<FloorPointRow>>;
-  Rows truth, tracks;
-  for (const FloorPointRow& row : readFloorPointsCsv(o.truth, "truth", "id")) {
-    truth[row.frame].push_back(row);
-  }
-  for (const FloorPointRow& row : readFloorPointsCsv(o.tracks, "tracks", "track_id")) {
-    tracks[row.frame].push_back(row);
-  }
+  const Rows truth = byFrame(readFloorPointsCsv(o.truth, "truth", "id"));
+  const Rows tracks = byFrame(readFloorPointsCsv(o.tracks, "tracks", "track_id"));
   const std::set<std::int64_t> scored = scoredFrames(truth, o);
   TrackScorer scorer(o.gate_m);
   std::vector<FloorPoint> truth_points, track_points;
   std::vector<std::int64_t> truth_ids, track_ids;
   for (const std::int64_t frame : scored) {
-    truth_points.clear();
-    truth_ids.clear();
-    track_points.clear();
-    track_ids.clear();
-    if (const auto t = truth.find(frame); t != truth.end()) {
-      for (const FloorPointRow& row : t->second) {
-        truth_points.push_back(row.point);
-        truth_ids.push_back(*row.id);
-      }
-    }
-    if (const auto t = tracks.find(frame); t != tracks.end()) {
-      for (const FloorPointRow& row : t->second) {
-        track_points.push_back(row.point);
-        track_ids.push_back(*row.id);
-      }
-    }
+    pointsAt(truth, frame, truth_points, &truth_ids);
+    pointsAt(tracks, frame, track_points, &track_ids);
     scorer.addFrame(truth_points, truth_ids, track_points, track_ids);
   }
+  const LeftOut left_out = leftOut(tracks, scored);
   const TrackScore s = scorer.score();
   if (o.json) {
     const nlohmann::json out = {
-        {"frames", s.frames}, {"truth", s.truth},       {"tracks", s.tracks},
-        {"pairs", s.pairs},   {"switches", s.switches}, {"id_pairs", s.id_pairs},
-        {"mota", s.mota()},   {"idf1", s.idf1()},       {"gate_m", o.gate_m}};
+        {"frames", s.frames},     {"truth", s.truth},
+        {"tracks", s.tracks},     {"pairs", s.pairs},
+        {"switches", s.switches}, {"id_pairs", s.id_pairs},
+        {"mota", s.mota()},       {"idf1", s.idf1()},
+        {"gate_m", o.gate_m},     {"tracks_outside_scored_frames", left_out.rows}};
     std::printf("%s\n", out.dump().c_str());
     return kExitOk;
   }
@@ -104,6 +120,7 @@ int runTrackScore(const ScoreOptions& o) {
               100.0 * s.mota(), s.truth - s.pairs, s.tracks - s.pairs, s.switches);
   std::printf("IDF1       %7.2f %%   (%zu points on identities paired once for the sequence)\n",
               100.0 * s.idf1(), s.id_pairs);
+  printLeftOut(left_out, "track points");
   return kExitOk;
 }
 
@@ -112,39 +129,33 @@ int runScore(const ScoreOptions& o) {
     throw InputError("", 0, "--detections", "give --detections or --tracks, one of them");
   }
   if (!o.tracks.empty()) return runTrackScore(o);
-  const Frames truth = byFrame(readFloorPointsCsv(o.truth, "truth"));
-  const Frames found = byFrame(readFloorPointsCsv(o.detections, "detections"));
+  const Rows truth = byFrame(readFloorPointsCsv(o.truth, "truth"));
+  const Rows found = byFrame(readFloorPointsCsv(o.detections, "detections"));
   const std::set<std::int64_t> scored = scoredFrames(truth, o);
   DetectionScorer scorer(o.gate_m);
-  const std::vector<FloorPoint> none;
+  std::vector<FloorPoint> truth_points, found_points;
   for (const std::int64_t frame : scored) {
-    const auto t = truth.find(frame);
-    const auto d = found.find(frame);
-    scorer.addFrame(t == truth.end() ? none : t->second, d == found.end() ? none : d->second);
+    pointsAt(truth, frame, truth_points);
+    pointsAt(found, frame, found_points);
+    scorer.addFrame(truth_points, found_points);
   }
-  std::size_t left_out = 0;  // detections in frames not scored: said, never silently dropped
-  std::size_t left_out_frames = 0;
-  for (const auto& [frame, points] : found) {
-    if (scored.count(frame) != 0) continue;
-    left_out += points.size();
-    ++left_out_frames;
-  }
+  const LeftOut left_out = leftOut(found, scored);
   const DetectionScore& s = scorer.score();
+  const double mean_distance_m = s.pairs == 0 ? 0.0 : s.distance_m / static_cast<double>(s.pairs);
   if (o.json) {
-    const nlohmann::json out = {
-        {"frames", s.frames},
-        {"people", s.people},
-        {"detections", s.detections},
-        {"pairs", s.pairs},
-        {"misses", s.misses()},
-        {"false_positives", s.falsePositives()},
-        {"moda", s.moda()},
-        {"modp", s.modp()},
-        {"precision", s.precision()},
-        {"recall", s.recall()},
-        {"mean_distance_m", s.pairs == 0 ? 0.0 : s.distance_m / static_cast<double>(s.pairs)},
-        {"gate_m", o.gate_m},
-        {"detections_outside_scored_frames", left_out}};
+    const nlohmann::json out = {{"frames", s.frames},
+                                {"people", s.people},
+                                {"detections", s.detections},
+                                {"pairs", s.pairs},
+                                {"misses", s.misses()},
+                                {"false_positives", s.falsePositives()},
+                                {"moda", s.moda()},
+                                {"modp", s.modp()},
+                                {"precision", s.precision()},
+                                {"recall", s.recall()},
+                                {"mean_distance_m", mean_distance_m},
+                                {"gate_m", o.gate_m},
+                                {"detections_outside_scored_frames", left_out.rows}};
     std::printf("%s\n", out.dump().c_str());
     return kExitOk;
   }
@@ -153,15 +164,10 @@ int runScore(const ScoreOptions& o) {
   std::printf("MODA       %7.2f %%   (misses %zu, false positives %zu)\n", 100.0 * s.moda(),
               s.misses(), s.falsePositives());
   std::printf("MODP       %7.2f %%   (mean distance of a pair %.3f m)\n", 100.0 * s.modp(),
-              s.pairs == 0 ? 0.0 : s.distance_m / static_cast<double>(s.pairs));
+              mean_distance_m);
   std::printf("precision  %7.2f %%\nrecall     %7.2f %%\n", 100.0 * s.precision(),
               100.0 * s.recall());
-  if (left_out > 0) {
-    std::printf(
-        "note: %zu detections in %zu frames that the truth does not name were not scored; "
-        "--frames N scores frames 0 to N-1, a frame without truth rows as one with nobody in it\n",
-        left_out, left_out_frames);
-  }
+  printLeftOut(left_out, "detections");
   return kExitOk;
 }
 

@@ -1,0 +1,72 @@
+#pragma once
+// The stage after the fusion as occmap detect, occmap track and occmap fuse run it off-line
+// (docs/detection.md): the people on each map, followed from map to map, written as CSV; the
+// zones' states; and with simulated cameras, each scored against the scene's own objects.
+
+#include <cstdint>
+#include <fstream>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "capture/sim/scene.h"
+#include "config/config.h"
+#include "config/rig.h"
+#include "core/detection_score.h"
+#include "core/footprints.h"
+#include "core/track_score.h"
+#include "core/tracker.h"
+#include "core/zones.h"
+
+namespace occmap::tools {
+
+class OfflineFootprints {
+ public:
+  // `detections_csv`, `tracks_csv`: the files to write, or empty for none (then nothing is
+  // detected). A file that cannot be written is an InputError, before any map is made.
+  OfflineFootprints(const Config& config, const std::vector<RigCamera>& cameras,
+                    const std::string& detections_csv, const std::string& tracks_csv);
+
+  // One map: its frame set's index, the masks it was fused from, its cells; with the simulator,
+  // the scene's objects at its time (nullptr otherwise).
+  void add(std::uint64_t map, std::span<const std::uint8_t* const> masks,
+           std::span<const CellState> cells, const std::vector<sim::SceneObject>* objects);
+
+  // Closes the files and prints what was written and its scores; false (said on stderr) when a
+  // file could not be written whole.
+  bool finishFiles(const char* command, std::uint64_t maps, double seconds);
+  // Each zone's maps per state and changes (and with the simulator, how often it was right).
+  void printZones() const;
+
+ private:
+  struct ZoneTally {
+    std::uint64_t maps[3] = {0, 0, 0};  // by ZoneState
+    std::uint64_t changes = 0;
+    std::uint64_t right = 0, judged = 0;  // against the scene's objects, where not unseen
+    std::uint64_t free_over_object = 0;
+  };
+  void scoreAgainst(const std::vector<sim::SceneObject>& objects);
+
+  const Config& config_;
+  std::string detections_path_, tracks_path_;
+  std::ofstream detections_file_, tracks_file_;
+  // Tracks and zones: the time between frame sets is 1 / fps of the first camera (the scene's for
+  // the simulator, the config's `fps` for files://, 30 lacking one): off-line, frames are read as
+  // fast as they go, so their read times are not their capture times.
+  double frame_s_ = 1.0 / 30.0;
+  std::optional<FootprintDetector> detector_;
+  std::optional<Tracker> tracker_;
+  Zones zones_;
+  std::vector<ZoneState> zone_states_;
+  std::vector<ZoneTally> zone_tally_;
+  bool scored_ = false;  // whether any map had the scene's objects
+  std::uint64_t detections_ = 0, track_rows_ = 0;
+  // This frame set's detections and tracks, and the scene's objects (people among them).
+  std::vector<FloorPoint> found_, followed_, people_, things_;
+  std::vector<std::int64_t> followed_ids_, thing_ids_;
+  DetectionScorer people_score_, object_score_;
+  TrackScorer track_score_;
+};
+
+}  // namespace occmap::tools
