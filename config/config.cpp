@@ -46,7 +46,7 @@ constexpr std::string_view kTopKeys[] = {"map",     "cameras",    "fusion", "tra
 constexpr std::string_view kZoneKeys[] = {"name", "polygon_m"};
 constexpr std::string_view kFootprintKeys[] = {"box_width_m", "box_height_m", "step_m",
                                                "min_support", "min_fresh",    "min_separation_m",
-                                               "min_cameras"};
+                                               "min_cameras", "enabled"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
@@ -451,6 +451,8 @@ class ConfigReader {
         footprints.min_cameras = smallInteger(entry.value, 1, 64);
       } else if (entry.key == "min_separation_m") {
         footprints.min_separation_m = real(entry.value, 0.0, false, 5.0, " m");
+      } else if (entry.key == "enabled") {
+        footprints.enabled = boolean(entry.value);
       }
     }
     return footprints;

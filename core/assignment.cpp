@@ -7,6 +7,16 @@
 
 namespace occmap {
 
+void Assignment::reserve(std::size_t rows, std::size_t columns) {
+  const std::size_t side = std::max(rows, columns) + 1;
+  square_.reserve(side * side);
+  for (auto* buffer : {&row_potential_, &column_potential_, &least_}) buffer->reserve(side);
+  column_row_.reserve(side);
+  way_.reserve(side);
+  used_.reserve(side);
+  out_.reserve(side);
+}
+
 const std::vector<int>& Assignment::solve(std::span<const double> cost, std::size_t rows,
                                           std::size_t columns, double gate) {
   if (cost.size() != rows * columns) {

@@ -18,6 +18,8 @@ class Assignment {
   // until the next call.
   const std::vector<int>& solve(std::span<const double> cost, std::size_t rows, std::size_t columns,
                                 double gate);
+  // Room for problems up to this size, so that solving them allocates nothing.
+  void reserve(std::size_t rows, std::size_t columns);
 
  private:
   std::vector<double> square_;  // the problem with rows <= columns, gated costs made dear

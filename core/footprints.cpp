@@ -156,6 +156,14 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   occupied_.assign(
       static_cast<std::size_t>(map.width + 1) * static_cast<std::size_t>(map.height + 1), 0);
   alive_.reserve(candidates_.size());
+  // Room for a crowd, so that finding one allocates nothing (more grow the buffers once).
+  constexpr std::size_t kRoom = 64;
+  detections_.reserve(kRoom);
+  chosen_.reserve(kRoom);
+  kept_.reserve(kRoom);
+  fragments_.reserve(16 * kRoom);
+  cut_.reserve(16 * kRoom);
+  for (CameraPlane& plane : planes_) plane.pieces.reserve(16 * kRoom);
 }
 
 FootprintDetector::CellRange FootprintDetector::cellsWithin(double x_m, double y_m,

@@ -37,6 +37,9 @@
 namespace occmap {
 
 struct FootprintSettings {
+  // Whether occmapd finds people on its maps and follows them (tracks_t); the off-line commands
+  // find them when asked to, whatever this says.
+  bool enabled = true;
   // The person-sized box: POM's (Fleuret et al. 2008).
   double box_width_m = 0.5;
   double box_height_m = 1.75;

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "core/map_geometry.h"
+#include "core/zones.h"
 
 namespace occmap {
 
@@ -32,11 +33,16 @@ struct MapFrame {
   // When the newest fused frame reached the pipeline (CLOCK_MONOTONIC ns; 0 when none was fused),
   // for the publisher to measure what the daemon adds to a frame's way (not sent).
   std::int64_t newest_arrival_ns = 0;
+  // The fusion's number of this map (from 0, +1 per map fused, published or not) and its time
+  // (CLOCK_MONOTONIC, seconds), for the tracks found on it later (not sent).
+  std::uint64_t fused = 0;
+  double time_s = 0.0;
   OccupancyMap map;
   std::vector<CameraContribution> cameras;
+  std::vector<ZoneStatus> zones;  // each zone of the config on this map (zones_t)
 
-  MapFrame(const MapGeometry& geometry, std::size_t camera_count)
-      : map(geometry), cameras(camera_count) {}
+  MapFrame(const MapGeometry& geometry, std::size_t camera_count, std::size_t zone_count = 0)
+      : map(geometry), cameras(camera_count), zones(zone_count) {}
 };
 
 }  // namespace occmap

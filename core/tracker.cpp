@@ -14,6 +14,13 @@ Tracker::Tracker(const TrackerSettings& settings) : settings_(settings) {
       !(settings.lost_after_s > 0)) {
     throw std::invalid_argument("Tracker: gate, noise and times must be positive");
   }
+  // Room for a crowd, so that following one allocates nothing (more grow the buffers once).
+  constexpr std::size_t kRoom = 64;
+  states_.reserve(kRoom);
+  out_.reserve(kRoom);
+  cost_.reserve(kRoom * kRoom);
+  used_.reserve(kRoom);
+  assignment_.reserve(kRoom, kRoom);
 }
 
 void Tracker::predict(State& state, double dt) const {
@@ -106,6 +113,8 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
     state.track.y_m = state.x(1);
     state.track.vx_m_s = state.x(2);
     state.track.vy_m_s = state.x(3);
+    state.track.age_s = time_s - state.first_s;
+    state.track.unseen_s = time_s - state.last_s;
     out_.push_back(state.track);
   }
   return out_;

@@ -40,7 +40,9 @@ struct Track {
   std::uint32_t id = 0;  // from 1, never reused
   double x_m = 0.0, y_m = 0.0;
   double vx_m_s = 0.0, vy_m_s = 0.0;
-  double area_m2 = 0.0;  // the last detection's
+  double area_m2 = 0.0;   // the last detection's
+  double age_s = 0.0;     // since its first detection
+  double unseen_s = 0.0;  // since its last detection (0: found on this map)
   bool confirmed = false;
 };
 

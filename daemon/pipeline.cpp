@@ -44,7 +44,17 @@ std::vector<std::string> cameraNames(const Rig& rig) {
   return names;
 }
 
-MapFrame emptyMap(const Rig& rig) { return MapFrame(rig.config().map, rig.cameras().size()); }
+MapFrame emptyMap(const Rig& rig) {
+  return MapFrame(rig.config().map, rig.cameras().size(), rig.config().zones.size());
+}
+
+std::vector<std::size_t> zoneCells(const Config& config) {
+  std::vector<std::size_t> cells;
+  for (const ZoneSpec& zone : config.zones) {
+    cells.push_back(cellsInside(config.map, zone.polygon_m).size());
+  }
+  return cells;
+}
 
 }  // namespace
 
@@ -69,7 +79,9 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
       map_publisher_(prepared_.rig.config().map, cameraNames(prepared_.rig),
                      parseMapEncoding(prepared_.rig.config().transport.encoding).value(),
                      prepared_.rig.config().transport.map_channel,
-                     prepared_.rig.config().transport.lcm_url) {
+                     prepared_.rig.config().transport.lcm_url),
+      footprints_publisher_(prepared_.rig.config().transport.map_channel, hostName(),
+                            prepared_.rig.config().zones, zoneCells(prepared_.rig.config())) {
   const Config& config = prepared_.rig.config();
   const std::size_t cameras = prepared_.rig.cameras().size();
   if (prepared_.tables.size() != cameras) throw std::invalid_argument("one carve table per camera");
@@ -93,6 +105,17 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
   logged_states_.assign(cameras, CameraState::kStarting);
   changed_.assign(cameras, nullptr);
   generations_.assign(cameras, 0);
+  if (!config.zones.empty()) zones_.emplace(config.map, config.zones);
+  if (config.footprints.enabled) {
+    std::vector<occmap::Camera> posed;
+    std::vector<std::size_t> mask_bytes;
+    for (const RigCamera& camera : prepared_.rig.cameras()) {
+      posed.push_back(*camera.camera);
+      mask_bytes.push_back(changedMaskBytes(camera.source->width(), camera.source->height()));
+    }
+    footprints_ =
+        std::make_unique<FootprintsStage>(config.map, posed, config.footprints, mask_bytes);
+  }
   RemoteControl::Options control;
   control.state_directory = options_.state_directory;
   control.max_requests_per_s = options_.max_control_requests_per_s;
@@ -136,6 +159,11 @@ void Pipeline::start() {
   // threads_: the publisher, fusion, then one per camera (stop() joins them in reverse).
   threads_.emplace_back([this] { guarded("publisher", kNoCamera, [this] { publisherLoop(); }); });
   threads_.emplace_back([this] { guarded("fusion", kNoCamera, [this] { fusionLoop(); }); });
+  if (footprints_) {
+    footprints_thread_ = std::thread([this] {
+      guarded("footprints", kNoCamera, [this] { footprints_->run(publish_wakeup_); });
+    });
+  }
   for (std::size_t k = 0; k < cameras_.size(); ++k) {
     threads_.emplace_back([this, k] { guarded("capture", k, [this, k] { captureLoop(k); }); });
   }
@@ -148,6 +176,10 @@ void Pipeline::stop() {
   stop_fusion_.store(true);
   fusion_wakeup_.signal();
   threads_[1].join();
+  if (footprints_thread_.joinable()) {
+    footprints_->stop();  // it finds the people on the last map first
+    footprints_thread_.join();
+  }
   stop_publisher_.store(true);
   publish_wakeup_.signal();
   threads_[0].join();
@@ -188,6 +220,20 @@ std::string Pipeline::summary() const {
                 static_cast<unsigned long long>(mapsPublished()),
                 static_cast<unsigned long long>(framesDropped()));
   return line;
+}
+
+void Pipeline::publishZones(Bus& bus, const MapFrame& map) {
+  sent_maps_[map.fused % kSentMaps] = SentMap{map.fused, map.seq};
+  footprints_publisher_.publishZones(bus, map.seq, map.utime, map.zones, map.time_s);
+}
+
+void Pipeline::publishTracks(Bus& bus) {
+  if (!footprints_) return;
+  const FootprintsFound* found = footprints_->takeLatest();
+  if (found == nullptr) return;
+  const SentMap& sent = sent_maps_[found->fused % kSentMaps];
+  const std::int64_t seq = sent.fused == found->fused ? sent.seq : -1;
+  footprints_publisher_.publishTracks(bus, seq, found->utime, found->footprints, found->tracks);
 }
 
 // One camera: read (or wait for) a frame, mark its changed pixels into the camera's newest-frame
@@ -526,6 +572,13 @@ void Pipeline::fuse(std::int64_t now) {
   }
   out.utime = newest != 0 ? newest : hostTimeMicroseconds();
   out.newest_arrival_ns = newest_arrival;
+  out.fused = next_fused_++;
+  out.time_s = static_cast<double>(now) * 1e-9;
+  if (zones_) {
+    const std::vector<ZoneStatus>& zones = zones_->update(out.map.cells, out.time_s);
+    std::copy(zones.begin(), zones.end(), out.zones.begin());
+  }
+  if (footprints_) footprints_->offer(out.fused, out.utime, out.time_s, changed_, out.map.cells);
   if (maps_.publish()) maps_skipped_.fetch_add(1, std::memory_order_relaxed);
   publish_wakeup_.signal();
   frame_set_.fused(now);
@@ -553,7 +606,11 @@ void Pipeline::publisherLoop() {
     status.publish(bus, report_, request_id, at);
   };
   auto publishNewestMap = [&] {
-    if (maps_.takeLatest()) map_publisher_.publish(bus, maps_.readBuffer());
+    if (maps_.takeLatest()) {
+      map_publisher_.publish(bus, maps_.readBuffer());
+      publishZones(bus, maps_.readBuffer());
+    }
+    publishTracks(bus);
   };
 
   pollfd fds[2] = {{publish_wakeup_.fd(), POLLIN, 0}, {bus.fileno(), POLLIN, 0}};

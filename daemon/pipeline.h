@@ -34,9 +34,12 @@
 #include "core/fusion_kernel.h"
 #include "core/map_frame.h"
 #include "core/triple_buffer.h"
+#include "core/zones.h"
+#include "daemon/footprints_stage.h"
 #include "daemon/remote_control.h"
 #include "daemon/reposer.h"
 #include "transport/bus.h"
+#include "transport/footprints_publisher.h"
 #include "transport/map_publisher.h"
 #include "transport/status_publisher.h"
 
@@ -82,6 +85,10 @@ class Pipeline {
   // frame's way to the network.
   const TimeHistogram& fusionTimes() const { return fusion_times_; }
   const TimeHistogram& publishLatency() const { return map_publisher_.latency(); }
+  // How long finding and following the people takes per map (empty when footprints are off).
+  const TimeHistogram* footprintTimes() const {
+    return footprints_ ? &footprints_->times() : nullptr;
+  }
   // Frames lost on the way, over all cameras (bad frames, wrong sizes).
   std::uint64_t framesDropped() const;
   // Frames fusion never took because a newer one of the same camera came first (fusion fuses the
@@ -181,6 +188,10 @@ class Pipeline {
   void noteState(std::size_t camera, CameraState state, std::int64_t now);
   void fuse(std::int64_t now);
   void publisherLoop();
+  // The publisher's part of the footprints: the zones of the map just sent, and the tracks found
+  // since, under the seq their map was sent with.
+  void publishZones(Bus& bus, const MapFrame& map);
+  void publishTracks(Bus& bus);
   void fillReport(std::int64_t now);
   // Runs a thread's body; what it throws is logged (and, for fusion and the publisher, failed()).
   static constexpr std::size_t kNoCamera = SIZE_MAX;
@@ -203,9 +214,24 @@ class Pipeline {
   std::vector<std::uint32_t> generations_;
   TripleBuffer<MapFrame> maps_;
   TimeHistogram fusion_times_;
+  std::optional<Zones> zones_;
+  std::uint64_t next_fused_ = 0;
+
+  // The people on the maps: their own thread (footprints_stage.h), nullptr when off.
+  std::unique_ptr<FootprintsStage> footprints_;
+  std::thread footprints_thread_;
 
   // Publisher thread state.
   MapPublisher map_publisher_;
+  FootprintsPublisher footprints_publisher_;
+  // The seq each of the last maps was sent with, by the fusion's number (for the tracks found on
+  // them later): a detector more than this many maps behind names no map (seq -1).
+  struct SentMap {
+    std::uint64_t fused = UINT64_MAX;
+    std::int64_t seq = -1;
+  };
+  static constexpr std::size_t kSentMaps = 64;
+  SentMap sent_maps_[kSentMaps];
   DaemonReport report_;
 
   // Stop requests, one per stage so that each drains what the one before it left.

@@ -1,0 +1,92 @@
+#include "daemon/footprints_stage.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include <poll.h>
+
+#include "base/clock.h"
+
+namespace occmap {
+
+FootprintsStage::Offer FootprintsStage::emptyOffer(std::span<const std::size_t> mask_bytes,
+                                                   std::size_t cells) {
+  Offer offer;
+  for (const std::size_t bytes : mask_bytes) offer.changed.emplace_back(bytes);
+  offer.used.assign(mask_bytes.size(), 0);
+  offer.cells.assign(cells, CellState::kUnseen);
+  return offer;
+}
+
+FootprintsFound FootprintsStage::emptyResult() {
+  // Room for a crowd, so that the usual map allocates nothing.
+  FootprintsFound found;
+  found.footprints.reserve(64);
+  found.tracks.reserve(64);
+  return found;
+}
+
+FootprintsStage::FootprintsStage(const MapGeometry& map, std::span<const Camera> cameras,
+                                 const FootprintSettings& settings,
+                                 std::span<const std::size_t> mask_bytes)
+    : detector_(map, cameras, settings),
+      offers_(emptyOffer(mask_bytes, map.cellCount()), emptyOffer(mask_bytes, map.cellCount()),
+              emptyOffer(mask_bytes, map.cellCount())),
+      results_(emptyResult(), emptyResult(), emptyResult()),
+      masks_(mask_bytes.size(), nullptr) {}
+
+void FootprintsStage::offer(std::uint64_t fused, std::int64_t utime, double time_s,
+                            std::span<const std::uint8_t* const> changed,
+                            std::span<const CellState> cells) {
+  Offer& offer = offers_.writeBuffer();
+  offer.fused = fused;
+  offer.utime = utime;
+  offer.time_s = time_s;
+  for (std::size_t k = 0; k < offer.changed.size(); ++k) {
+    offer.used[k] = changed[k] != nullptr ? 1 : 0;
+    if (changed[k] != nullptr) {
+      std::memcpy(offer.changed[k].data(), changed[k], offer.changed[k].size());
+    }
+  }
+  std::copy(cells.begin(), cells.end(), offer.cells.begin());
+  offers_.publish();
+  wakeup_.signal();
+}
+
+void FootprintsStage::stop() {
+  stopping_.store(true, std::memory_order_relaxed);
+  wakeup_.signal();
+}
+
+void FootprintsStage::run(const EventFd& found) {
+  pollfd wakeup{wakeup_.fd(), POLLIN, 0};
+  for (;;) {
+    // A bounded wait: stop() signals too, so this is only a guard against a lost wake-up.
+    ::poll(&wakeup, 1, 100);
+    wakeup_.drain();
+    const bool last_round = stopping_.load(std::memory_order_relaxed);
+    if (findNewest()) found.signal();
+    if (last_round) return;
+  }
+}
+
+bool FootprintsStage::findNewest() {
+  if (!offers_.takeLatest()) return false;
+  const Offer& offer = offers_.readBuffer();
+  const std::int64_t began = monotonicNanoseconds();
+  for (std::size_t k = 0; k < masks_.size(); ++k) {
+    masks_[k] = offer.used[k] != 0 ? offer.changed[k].data() : nullptr;
+  }
+  const std::vector<Detection>& footprints = detector_.detect(masks_, offer.cells);
+  const std::vector<Track>& tracks = tracker_.update(footprints, offer.time_s);
+  FootprintsFound& out = results_.writeBuffer();
+  out.fused = offer.fused;
+  out.utime = offer.utime;
+  out.footprints.assign(footprints.begin(), footprints.end());
+  out.tracks.assign(tracks.begin(), tracks.end());
+  times_.record(monotonicNanoseconds() - began);
+  results_.publish();
+  return true;
+}
+
+}  // namespace occmap

@@ -1,0 +1,83 @@
+#pragma once
+// The people on the live maps (issue 14, docs/detection.md): detection and tracking in a thread of
+// their own, beside the map's path. Fusion offers each map with the changed pixels it was fused
+// from (copied: the capture threads overwrite their masks); this thread takes the newest offer,
+// finds the people on it (core/footprints.h), follows them (core/tracker.h) and hands the result
+// to the publisher, which sends it as a tracks_t naming its map. So a detector slower than the
+// cameras makes tracks at its own rate and never holds a map back, and the zones (cheap, on the
+// map alone) go out with every map from the fusion thread.
+// Everything is allocated before start(); a map allocates nothing once the crowd has been as
+// large before.
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "base/event_fd.h"
+#include "base/time_histogram.h"
+#include "core/camera.h"
+#include "core/footprints.h"
+#include "core/map_geometry.h"
+#include "core/tracker.h"
+#include "core/triple_buffer.h"
+
+namespace occmap {
+
+// What was found on one map.
+struct FootprintsFound {
+  std::uint64_t fused = 0;  // the map's number from fusion (MapFrame::fused)
+  std::int64_t utime = 0;   // the map's utime
+  std::vector<Detection> footprints;
+  std::vector<Track> tracks;
+};
+
+class FootprintsStage {
+ public:
+  // `mask_bytes`: each camera's changed-pixel buffer (changedMaskBytes of its stream).
+  FootprintsStage(const MapGeometry& map, std::span<const Camera> cameras,
+                  const FootprintSettings& settings, std::span<const std::size_t> mask_bytes);
+
+  // Fusion thread: the map just fused, at time_s (CLOCK_MONOTONIC seconds), and each camera's
+  // changed pixels that went into it (nullptr: not used). Copied; never waits.
+  void offer(std::uint64_t fused, std::int64_t utime, double time_s,
+             std::span<const std::uint8_t* const> changed, std::span<const CellState> cells);
+  // Its own thread: until stop(), each newest offer in turn; after stop(), the last offer left.
+  // `found` is signalled after each result is handed over (the publisher's wake-up).
+  void run(const EventFd& found);
+  // Any thread: run() returns once it has taken what is left.
+  void stop();
+
+  // Publisher thread: the newest result not taken yet, or nullptr.
+  const FootprintsFound* takeLatest() {
+    return results_.takeLatest() ? &results_.readBuffer() : nullptr;
+  }
+  // Time to find and follow the people on one map.
+  const TimeHistogram& times() const { return times_; }
+
+ private:
+  struct Offer {
+    std::uint64_t fused = 0;
+    std::int64_t utime = 0;
+    double time_s = 0.0;
+    std::vector<std::vector<std::uint8_t>> changed;
+    std::vector<std::uint8_t> used;
+    std::vector<CellState> cells;
+  };
+  static Offer emptyOffer(std::span<const std::size_t> mask_bytes, std::size_t cells);
+  static FootprintsFound emptyResult();
+  // One offer: true when there was a new one.
+  bool findNewest();
+
+  FootprintDetector detector_;
+  Tracker tracker_;
+  TripleBuffer<Offer> offers_;
+  TripleBuffer<FootprintsFound> results_;
+  std::vector<const std::uint8_t*> masks_;
+  EventFd wakeup_;
+  std::atomic<bool> stopping_{false};
+  TimeHistogram times_;
+};
+
+}  // namespace occmap
