@@ -127,6 +127,19 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
     plane.counts.assign(blocks, 0);
     plane.changed.assign(entries, 0);
     plane.pieces.reserve(64);
+    // Each pixel column's block, and which tiles' 8 columns lie in one block: counting then
+    // divides nothing, and a tile row's byte in one block counts with one popcount.
+    plane.block_of.resize(tilesAcross(plane.width) * 8);
+    for (std::size_t u = 0; u < plane.block_of.size(); ++u) {
+      plane.block_of[u] =
+          static_cast<std::uint16_t>(std::min(static_cast<int>(u), plane.width - 1) / plane.block);
+    }
+    plane.whole_tile.resize(tilesAcross(plane.width));
+    for (std::size_t tile = 0; tile < plane.whole_tile.size(); ++tile) {
+      const std::size_t last = tile * 8 + 7;
+      plane.whole_tile[tile] = last < static_cast<std::size_t>(plane.width) &&
+                               plane.block_of[tile * 8] == plane.block_of[last];
+    }
   }
   boxes_.resize(pixel_boxes.size());
   for (std::size_t i = 0; i < pixel_boxes.size(); ++i) {
@@ -270,10 +283,15 @@ const std::vector<Detection>& FootprintDetector::detect(
           plane.counts.data() + static_cast<std::size_t>(v / plane.block) * plane.across;
       for (std::size_t tile = 0; tile < tiles_across; ++tile) {
         unsigned byte = bytes[tile * 8];
+        if (byte == 0) continue;
+        if (plane.whole_tile[tile]) {
+          counts[plane.block_of[tile * 8]] += static_cast<std::uint32_t>(std::popcount(byte));
+          continue;
+        }
         while (byte != 0) {
-          const int u = static_cast<int>(tile) * 8 + std::countr_zero(byte);
+          const std::size_t u = tile * 8 + static_cast<std::size_t>(std::countr_zero(byte));
           byte &= byte - 1;
-          if (u < plane.width) ++counts[u / plane.block];
+          if (u < static_cast<std::size_t>(plane.width)) ++counts[plane.block_of[u]];
         }
       }
     }

@@ -89,8 +89,10 @@ class FootprintDetector {
     int block = 1;   // pixels a side
     int across = 0;  // blocks
     int down = 0;
-    std::vector<std::uint32_t> counts;   // changed pixels per block
-    std::vector<std::uint32_t> changed;  // integral image of counts
+    std::vector<std::uint16_t> block_of;   // each pixel column's block column
+    std::vector<std::uint8_t> whole_tile;  // 1: a tile's 8 columns lie in one block
+    std::vector<std::uint32_t> counts;     // changed pixels per block
+    std::vector<std::uint32_t> changed;    // integral image of counts
     // The union of the boxes of the people found so far, as disjoint rectangles.
     std::vector<Box> pieces;
   };

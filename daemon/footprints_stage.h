@@ -56,6 +56,11 @@ class FootprintsStage {
   // Time to find and follow the people on one map.
   const TimeHistogram& times() const { return times_; }
 
+  // One round of the thread's: the people on the newest offer, handed to takeLatest(); false when
+  // there was no new offer. Public for the benchmark (bench/footprints_bench.cpp), which runs the
+  // stage's work without its thread.
+  bool findNewest();
+
  private:
   struct Offer {
     std::uint64_t fused = 0;
@@ -67,8 +72,6 @@ class FootprintsStage {
   };
   static Offer emptyOffer(std::span<const std::size_t> mask_bytes, std::size_t cells);
   static FootprintsFound emptyResult();
-  // One offer: true when there was a new one.
-  bool findNewest();
 
   FootprintDetector detector_;
   Tracker tracker_;
