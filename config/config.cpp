@@ -46,7 +46,7 @@ constexpr std::string_view kTopKeys[] = {"map",     "cameras",    "fusion", "tra
 constexpr std::string_view kZoneKeys[] = {"name", "polygon_m"};
 constexpr std::string_view kFootprintKeys[] = {"box_width_m", "box_height_m", "step_m",
                                                "min_support", "min_fresh",    "min_separation_m",
-                                               "min_cameras", "enabled"};
+                                               "min_cameras", "enabled",      "object_height_m"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
@@ -453,6 +453,12 @@ class ConfigReader {
         footprints.min_separation_m = real(entry.value, 0.0, false, 5.0, " m");
       } else if (entry.key == "enabled") {
         footprints.enabled = boolean(entry.value);
+      } else if (entry.key == "object_height_m") {
+        footprints.object_height_m = real(entry.value, 0.0, false, 5.0, " m");
+      } else if (entry.key == "object_min_support") {
+        footprints.object_min_support = real(entry.value, 0.0, true, 1.0, "");
+      } else if (entry.key == "object_min_fresh") {
+        footprints.object_min_fresh = real(entry.value, 0.0, true, 1.0, "");
       }
     }
     return footprints;

@@ -50,55 +50,62 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   std::vector<Eigen::Vector3d> centres;
   for (const Camera& camera : cameras) centres.push_back(camera.centreMetres());
-  for (double y = map.origin_y_m + step / 2; y < map.origin_y_m + map_height_m; y += step) {
-    for (double x = map.origin_x_m + step / 2; x < map.origin_x_m + map_width_m; x += step) {
-      const Candidate candidate{x, y, cellsWithin(x, y, settings.box_width_m / 4),
-                                pixel_boxes.size()};
-      if (candidate.near.row1 <= candidate.near.row0 ||
-          candidate.near.column1 <= candidate.near.column0) {
-        continue;
-      }
-      bool any = false;
-      for (std::size_t k = 0; k < cameras.size(); ++k) {
-        const Camera& camera = cameras[k];
-        std::array<double, 4> pixel_box{kNaN, kNaN, kNaN, kNaN};
-        const int w = camera.streamWidth(), h = camera.streamHeight();
-        // A person's box as the camera sees it: the upright rectangle, box_width_m wide and
-        // box_height_m tall, standing at the place and facing the camera (the rectangle bounding
-        // a 3D box's corners is up to 1.4 times wider than any person seen from an angle).
-        const Eigen::Vector3d& centre = centres[k];
-        Eigen::Vector2d across(y - centre.y(), centre.x() - x);  // across the line of sight
-        const double length = across.norm();
-        const std::optional<Eigen::Vector2d> foot = camera.worldToStream({x, y, 0.0});
-        bool whole = length > 1e-9 && foot && foot->x() >= -0.5 && foot->y() >= -0.5 &&
-                     foot->x() < w - 0.5 && foot->y() < h - 0.5;
-        if (whole) across *= half / length;
-        double u_min = std::numeric_limits<double>::infinity(), v_min = u_min;
-        double u_max = -u_min, v_max = -u_min;
-        for (int corner = 0; corner < 4 && whole; ++corner) {
-          const double side = (corner & 1) != 0 ? 1.0 : -1.0;
-          const Eigen::Vector3d point(x + side * across.x(), y + side * across.y(),
-                                      (corner & 2) != 0 ? settings.box_height_m : 0.0);
-          const std::optional<Eigen::Vector2d> pixel = camera.worldToStream(point);
-          if (!pixel) {
-            whole = false;
-            break;
+  // People's boxes first, then (object_height_m > 0) the low boxes of what stands lower.
+  const double heights[2] = {settings.box_height_m, settings.object_height_m};
+  for (int tier = 0; tier < 2; ++tier) {
+    const double box_height = heights[tier];
+    if (!(box_height > 0)) continue;
+    if (tier == 1) first_low_ = candidates_.size();
+    for (double y = map.origin_y_m + step / 2; y < map.origin_y_m + map_height_m; y += step) {
+      for (double x = map.origin_x_m + step / 2; x < map.origin_x_m + map_width_m; x += step) {
+        const Candidate candidate{x, y, cellsWithin(x, y, settings.box_width_m / 4),
+                                  pixel_boxes.size()};
+        if (candidate.near.row1 <= candidate.near.row0 ||
+            candidate.near.column1 <= candidate.near.column0) {
+          continue;
+        }
+        bool any = false;
+        for (std::size_t k = 0; k < cameras.size(); ++k) {
+          const Camera& camera = cameras[k];
+          std::array<double, 4> pixel_box{kNaN, kNaN, kNaN, kNaN};
+          const int w = camera.streamWidth(), h = camera.streamHeight();
+          // A person's box as the camera sees it: the upright rectangle, box_width_m wide and
+          // box_height_m tall, standing at the place and facing the camera (the rectangle bounding
+          // a 3D box's corners is up to 1.4 times wider than any person seen from an angle).
+          const Eigen::Vector3d& centre = centres[k];
+          Eigen::Vector2d across(y - centre.y(), centre.x() - x);  // across the line of sight
+          const double length = across.norm();
+          const std::optional<Eigen::Vector2d> foot = camera.worldToStream({x, y, 0.0});
+          bool whole = length > 1e-9 && foot && foot->x() >= -0.5 && foot->y() >= -0.5 &&
+                       foot->x() < w - 0.5 && foot->y() < h - 0.5;
+          if (whole) across *= half / length;
+          double u_min = std::numeric_limits<double>::infinity(), v_min = u_min;
+          double u_max = -u_min, v_max = -u_min;
+          for (int corner = 0; corner < 4 && whole; ++corner) {
+            const double side = (corner & 1) != 0 ? 1.0 : -1.0;
+            const Eigen::Vector3d point(x + side * across.x(), y + side * across.y(),
+                                        (corner & 2) != 0 ? box_height : 0.0);
+            const std::optional<Eigen::Vector2d> pixel = camera.worldToStream(point);
+            if (!pixel) {
+              whole = false;
+              break;
+            }
+            u_min = std::min(u_min, pixel->x());
+            u_max = std::max(u_max, pixel->x());
+            v_min = std::min(v_min, pixel->y());
+            v_max = std::max(v_max, pixel->y());
           }
-          u_min = std::min(u_min, pixel->x());
-          u_max = std::max(u_max, pixel->x());
-          v_min = std::min(v_min, pixel->y());
-          v_max = std::max(v_max, pixel->y());
+          if (whole) {
+            pixel_box = {u_min, v_min, u_max, v_max};
+            any = true;
+          }
+          pixel_boxes.push_back(pixel_box);
         }
-        if (whole) {
-          pixel_box = {u_min, v_min, u_max, v_max};
-          any = true;
+        if (any) {
+          candidates_.push_back(candidate);
+        } else {
+          pixel_boxes.resize(candidate.boxes);
         }
-        pixel_boxes.push_back(pixel_box);
-      }
-      if (any) {
-        candidates_.push_back(candidate);
-      } else {
-        pixel_boxes.resize(candidate.boxes);
       }
     }
   }
@@ -202,7 +209,7 @@ FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c) const {
     const Box& box = boxes_[candidate.boxes + k];
     if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
     const CameraPlane& plane = planes_[k];
-    const double area = box.pixels;
+    const double area = static_cast<double>(box.pixels);
     const double changed =
         rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
     // The changed pixels of the box that the people found cover: their boxes' union is kept as
@@ -259,6 +266,63 @@ void FootprintDetector::markExplained(std::size_t c) {
   }
 }
 
+// The greedy explanation over candidates [begin, end): the one with the most fresh evidence is
+// taken, its boxes' pixels explained, until none adds min_fresh.
+void FootprintDetector::explainGreedily(std::size_t begin, std::size_t end) {
+  const double separation2 = settings_.min_separation_m * settings_.min_separation_m;
+  const auto tooClose = [&](std::size_t c, double x_m, double y_m) {
+    const double dx = candidates_[c].x_m - x_m, dy = candidates_[c].y_m - y_m;
+    return dx * dx + dy * dy < separation2;
+  };
+  alive_.clear();
+  for (std::size_t c = begin; c < end; ++c) {
+    if (occupiedWithin(candidates_[c].near) == 0) continue;
+    if (std::any_of(detections_.begin(), detections_.end(),
+                    [&](const Detection& d) { return tooClose(c, d.x_m, d.y_m); })) {
+      continue;
+    }
+    alive_.push_back(c);
+  }
+  const double half = settings_.box_width_m / 2;
+  const bool low = begin >= first_low_;
+  const double min_support = low ? settings_.object_min_support : settings_.min_support;
+  const double min_fresh = low ? settings_.object_min_fresh : settings_.min_fresh;
+  while (!alive_.empty()) {
+    double best_rank = -1.0;
+    std::size_t best = 0;
+    Evidence best_evidence;
+    // A candidate that fails once fails for good: its cameras and support do not change, and
+    // what it would add only shrinks as people are found. It is dropped.
+    std::size_t still = 0;
+    for (const std::size_t c : alive_) {
+      const Evidence e = evidence(c);
+      if (e.cameras < settings_.min_cameras || e.support < min_support || e.fresh < min_fresh) {
+        continue;
+      }
+      alive_[still++] = c;
+      // The most new evidence first: a person where one stands explains the whole of their own
+      // silhouette in every camera, a ghost between people only parts of theirs (ranked by the
+      // least support instead, the crowd set scored MODA 23 % against 65 %, docs/detection.md).
+      if (e.fresh > best_rank) {
+        best_rank = e.fresh;
+        best = c;
+        best_evidence = e;
+      }
+    }
+    alive_.resize(still);
+    if (best_rank < 0) break;
+    const Candidate& found = candidates_[best];
+    // The footprint's area: the occupied cells under the box.
+    const double area_m2 = occupiedWithin(cellsWithin(found.x_m, found.y_m, half)) *
+                           map_.cell_size_m * map_.cell_size_m;
+    detections_.push_back({found.x_m, found.y_m, area_m2, best_evidence.support,
+                           low ? settings_.object_height_m : settings_.box_height_m});
+    chosen_.push_back(best);
+    markExplained(best);
+    std::erase_if(alive_, [&](std::size_t c) { return tooClose(c, found.x_m, found.y_m); });
+  }
+}
+
 const std::vector<Detection>& FootprintDetector::detect(
     std::span<const std::uint8_t* const> changed, std::span<const CellState> cells) {
   if (changed.size() != planes_.size()) {
@@ -279,8 +343,8 @@ const std::vector<Detection>& FootprintDetector::detect(
     for (int v = 0; v < plane.height; ++v) {
       const std::uint8_t* bytes = changed[k] + static_cast<std::size_t>(v / 8) * tiles_across * 8 +
                                   static_cast<std::size_t>(v % 8);
-      std::uint32_t* counts =
-          plane.counts.data() + static_cast<std::size_t>(v / plane.block) * plane.across;
+      std::uint32_t* counts = plane.counts.data() + static_cast<std::size_t>(v / plane.block) *
+                                                        static_cast<std::size_t>(plane.across);
       for (std::size_t tile = 0; tile < tiles_across; ++tile) {
         unsigned byte = bytes[tile * 8];
         if (byte == 0) continue;
@@ -320,49 +384,10 @@ const std::vector<Detection>& FootprintDetector::detect(
           sum;
     }
   }
-  alive_.clear();
-  for (std::size_t c = 0; c < candidates_.size(); ++c) {
-    if (occupiedWithin(candidates_[c].near) > 0) alive_.push_back(c);
-  }
-  const double separation2 = settings_.min_separation_m * settings_.min_separation_m;
-  const double half = settings_.box_width_m / 2;
-  while (!alive_.empty()) {
-    double best_rank = -1.0;
-    std::size_t best = 0;
-    Evidence best_evidence;
-    // A candidate that fails once fails for good: its cameras and support do not change, and
-    // what it would add only shrinks as people are found. It is dropped.
-    std::size_t still = 0;
-    for (const std::size_t c : alive_) {
-      const Evidence e = evidence(c);
-      if (e.cameras < settings_.min_cameras || e.support < settings_.min_support ||
-          e.fresh < settings_.min_fresh) {
-        continue;
-      }
-      alive_[still++] = c;
-      // The most new evidence first: a person where one stands explains the whole of their own
-      // silhouette in every camera, a ghost between people only parts of theirs (ranked by the
-      // least support instead, the crowd set scored MODA 23 % against 65 %, docs/detection.md).
-      if (e.fresh > best_rank) {
-        best_rank = e.fresh;
-        best = c;
-        best_evidence = e;
-      }
-    }
-    alive_.resize(still);
-    if (best_rank < 0) break;
-    const Candidate& found = candidates_[best];
-    // The footprint's area: the occupied cells under the box.
-    const double area_m2 = occupiedWithin(cellsWithin(found.x_m, found.y_m, half)) *
-                           map_.cell_size_m * map_.cell_size_m;
-    detections_.push_back({found.x_m, found.y_m, area_m2, best_evidence.support});
-    chosen_.push_back(best);
-    markExplained(best);
-    std::erase_if(alive_, [&](std::size_t c) {
-      const double dx = candidates_[c].x_m - found.x_m, dy = candidates_[c].y_m - found.y_m;
-      return dx * dx + dy * dy < separation2;
-    });
-  }
+  // People first, then what stands lower where no one was found.
+  first_low_ = std::min(first_low_, candidates_.size());
+  explainGreedily(0, first_low_);
+  explainGreedily(first_low_, candidates_.size());
   // Then each detection, the last found first, is judged again against the pixels all the others
   // explain: a ghost taken early, before the people whose silhouettes make it, is then seen to add
   // nothing and goes (the crowd set: false positives 108 -> 64, misses 62 -> 66).

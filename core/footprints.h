@@ -43,6 +43,16 @@ struct FootprintSettings {
   // The person-sized box: POM's (Fleuret et al. 2008).
   double box_width_m = 0.5;
   double box_height_m = 1.75;
+  // What stands lower than a person (a cart, a small robot) fills too little of a person's box:
+  // where no person was found, boxes this high are tried next (0: none), with their own least
+  // support and fresh evidence. An object fills its low box more than a person fills theirs, and
+  // the lower body of someone behind others fills a low box too: these keep such ghosts out
+  // (sim://room-crowd, 300 maps: its robot found in 19 % of them with people's boxes alone, in
+  // 51 % so; MODA 64.3 -> 66.9 %, precision 94.5 -> 94.2 %; EPFL Terrace's crowd: MODA 73.0 ->
+  // 73.9 %, docs/detection.md).
+  double object_height_m = 0.5;
+  double object_min_support = 0.4;
+  double object_min_fresh = 0.3;
   // The candidates' grid (at least the map's cell).
   double step_m = 0.1;
   // The least share of changed pixels among a camera's unexplained pixels of the box for it to
@@ -63,8 +73,9 @@ struct FootprintSettings {
 struct Detection {
   double x_m = 0.0;
   double y_m = 0.0;
-  double area_m2 = 0.0;  // the occupied map cells that the box's footprint covers or touches
-  double score = 0.0;    // the least support of a camera that sees it, 0 to 1
+  double area_m2 = 0.0;   // the occupied map cells that the box's footprint covers or touches
+  double score = 0.0;     // the least support of a camera that sees it, 0 to 1
+  double height_m = 0.0;  // the box it was found with: a person's, or a low object's
 };
 
 class FootprintDetector {
@@ -121,10 +132,12 @@ class FootprintDetector {
   // The changed pixels of the candidate's boxes become explained.
   void markExplained(std::size_t candidate);
   void forgetExplained();
+  void explainGreedily(std::size_t begin, std::size_t end);
 
   MapGeometry map_;
   FootprintSettings settings_;
-  std::vector<Candidate> candidates_;
+  std::vector<Candidate> candidates_;  // people's boxes, then from first_low_ the low ones
+  std::size_t first_low_ = SIZE_MAX;
   std::vector<Box> boxes_;  // candidates x cameras; u0 == kNotSeen where not in view
   std::vector<CameraPlane> planes_;
   std::vector<const std::uint8_t*> changed_;

@@ -51,6 +51,8 @@ bool fuzzControlStatus(Input input);      // control_status: control_status_t, r
 bool fuzzControlReply(Input input);       // control_reply: control_reply_t, read by occmap control
 bool fuzzLightingStatus(Input input);  // lighting_status: lighting_status_t, read by occmap status
 bool fuzzViewStatus(Input input);      // view_status: view_status_t, read by occmap status
+bool fuzzTracks(Input input);          // tracks: tracks_t, read by occmap status
+bool fuzzZones(Input input);           // zones: zones_t, read by occmap status
 
 // The key the control_request seeds are signed with (fuzz_make_seeds): bytes 0, 1, ..., 31. Not
 // a secret: it exists so that fuzzing starts from requests whose mac holds.
@@ -81,6 +83,8 @@ inline constexpr Target kTargets[] = {
     {"control_reply", fuzzControlReply},
     {"lighting_status", fuzzLightingStatus},
     {"view_status", fuzzViewStatus},
+    {"tracks", fuzzTracks},
+    {"zones", fuzzZones},
 };
 
 }  // namespace occmap::fuzz

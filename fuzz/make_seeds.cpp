@@ -16,7 +16,9 @@
 #include <occmap/lighting_status_t.hpp>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
+#include <occmap/tracks_t.hpp>
 #include <occmap/view_status_t.hpp>
+#include <occmap/zones_t.hpp>
 
 #include "fuzz/fuzz_target.h"
 #include "transport/control_message.h"
@@ -201,6 +203,69 @@ int main(int argc, char** argv) {
   view.request_id = 77;
   view.hostname = status.hostname;
   writeMessage(corpus / "view_status" / "answer-no-cameras.bin", view);
+
+  // The tracks occmapd publishes beside its maps: two people on a map, one of them found again
+  // on it, among three footprints; then a map where nobody is, found after a newer map was sent.
+  occmap::tracks_t tracks{};
+  tracks.utime = status.utime - 40'000;
+  tracks.seq = 2'799'998;
+  tracks.hostname = status.hostname;
+  tracks.footprints = {{1.21, 0.34, 0.21, 0.62, 1.75}, {-0.42, 2.08, 0.17, 0.35, 1.75}, {2.9, 3.1, 0.04, 0.61, 0.5}};
+  tracks.num_footprints = static_cast<std::int16_t>(tracks.footprints.size());
+  occmap::track_t person{};
+  person.id = 4;
+  person.x_m = 1.2;
+  person.y_m = 0.35;
+  person.vx_m_s = 0.79;
+  person.vy_m_s = -0.12;
+  person.area_m2 = 0.21;
+  person.age_s = 12.4;
+  person.unseen_s = 0;
+  tracks.tracks = {person, person};
+  tracks.tracks[1].id = 7;
+  tracks.tracks[1].x_m = -0.4;
+  tracks.tracks[1].y_m = 2.1;
+  tracks.tracks[1].vx_m_s = 0;
+  tracks.tracks[1].vy_m_s = 0.01;
+  tracks.tracks[1].age_s = 3.1;
+  tracks.tracks[1].unseen_s = 0.1;
+  tracks.num_tracks = static_cast<std::int16_t>(tracks.tracks.size());
+  writeMessage(corpus / "tracks" / "two-people-3-footprints.bin", tracks);
+  tracks.seq = -1;
+  tracks.footprints.clear();
+  tracks.num_footprints = 0;
+  tracks.tracks.clear();
+  tracks.num_tracks = 0;
+  writeMessage(corpus / "tracks" / "nobody-map-never-sent.bin", tracks);
+
+  // The zones published right after a map: one of each state, with 4, 3 and 5 corners; then a
+  // zones_t without zones (occmapd sends none then, but anyone may).
+  occmap::zones_t zones{};
+  zones.utime = status.utime - 33'000;
+  zones.seq = 2'799'999;
+  zones.hostname = status.hostname;
+  const auto zone = [](const char* name, std::int8_t state, double state_s, std::vector<double> x_m,
+                       std::vector<double> y_m) {
+    occmap::zone_t z{};
+    z.name = name;
+    z.state = state;
+    z.state_s = state_s;
+    z.cells = 2500;
+    z.occupied_cells = state == occmap::zone_t::OCCUPIED ? 41 : 0;
+    z.unseen_cells = state == occmap::zone_t::UNSEEN ? 120 : 0;
+    z.num_corners = static_cast<std::int16_t>(x_m.size());
+    z.corner_x_m = std::move(x_m);
+    z.corner_y_m = std::move(y_m);
+    return z;
+  };
+  zones.zones = {zone("robot-cell", occmap::zone_t::OCCUPIED, 3.2, {0, 1, 1, 0}, {0, 0, 1, 1}),
+                 zone("door", occmap::zone_t::FREE, 754.0, {2, 3, 2.5}, {0, 0, 1}),
+                 zone("desk", occmap::zone_t::UNSEEN, 0, {-1, 0, 0, -0.5, -1}, {2, 2, 3, 3.5, 3})};
+  zones.num_zones = static_cast<std::int16_t>(zones.zones.size());
+  writeMessage(corpus / "zones" / "three-zones.bin", zones);
+  zones.zones.clear();
+  zones.num_zones = 0;
+  writeMessage(corpus / "zones" / "no-zones.bin", zones);
 
   // Signed with the control target's key (fuzz/fuzz_target.h), so that a seed goes all the way.
   occmap::control_request_t control{};

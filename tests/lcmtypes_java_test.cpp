@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
+#include <occmap/tracks_t.hpp>
+#include <occmap/zones_t.hpp>
 
 #include "command_runner.h"
 #include "map_scenes.h"
@@ -65,18 +67,45 @@ TEST_F(LcmTypesJava, LcmSpysTypeDatabaseDecodesWhatCppEncoded) {
   camera.name = "c7";
   camera.sequence = 9;
   writeMessage(folder / "camera", camera);
+  // The messages beside the maps, whose parts are types of their own (zone_t, footprint_t,
+  // track_t): the fingerprint covers them, so a jar without them would find no class.
+  occmap::zones_t zones{};
+  zones.utime = 1'700'000'000'123'456;
+  zones.seq = 42;
+  zones.hostname = "camera-pc";
+  occmap::zone_t zone{};
+  zone.name = "robot-cell";
+  zone.state = occmap::zone_t::OCCUPIED;
+  zone.corner_x_m = {0, 1, 1};
+  zone.corner_y_m = {0, 0, 1};
+  zone.num_corners = 3;
+  zones.zones = {zone};
+  zones.num_zones = 1;
+  writeMessage(folder / "zones", zones);
+  occmap::tracks_t tracks{};
+  tracks.utime = 1'700'000'000'100'000;
+  tracks.seq = 41;
+  tracks.hostname = "camera-pc";
+  tracks.footprints = {{1.5, 0.25, 0.2, 0.5, 1.75}};
+  tracks.num_footprints = 1;
+  tracks.tracks = {{4, 1.5, 0.25, 0.5, 0, 0.2, 3, 0}, {7, 0, 1, 0, 0, 0.2, 1, 0.1}};
+  tracks.num_tracks = 2;
+  writeMessage(folder / "tracks", tracks);
 
-  const auto result = runCommand({OCCMAP_JAVA, "-cp", kLcmJar + ":" + kJar,
-                                  OCCMAP_SOURCE_DIR "/tests/java/LcmTypesCheck.java",
-                                  (folder / "map").string(), (folder / "status").string(),
-                                  (folder / "request").string(), (folder / "camera").string()});
+  const auto result = runCommand(
+      {OCCMAP_JAVA, "-cp", kLcmJar + ":" + kJar, OCCMAP_SOURCE_DIR "/tests/java/LcmTypesCheck.java",
+       (folder / "map").string(), (folder / "status").string(), (folder / "request").string(),
+       (folder / "camera").string(), (folder / "zones").string(), (folder / "tracks").string()});
   ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
   for (const char* expected :
        {"occmap.map_frame_t utime=1700000000123456 seq=42 width=64 height=48 cell_size_m=0.02 "
         "origin_x_m=-0.5 origin_y_m=-1.5 encoding=1",
         "occmap.status_t utime=0 request_id=77 hostname=camera-pc",
         "occmap.status_request_t utime=5 request_id=1234567890123",
-        "occmap.camera_frame_t name=c7 state=0 used=false sequence=9 capture_utime=0"}) {
+        "occmap.camera_frame_t name=c7 state=0 used=false sequence=9 capture_utime=0",
+        "occmap.zones_t utime=1700000000123456 seq=42 hostname=camera-pc num_zones=1",
+        "occmap.tracks_t utime=1700000000100000 seq=41 hostname=camera-pc num_footprints=1 "
+        "num_tracks=2"}) {
     EXPECT_NE(result.out.find(expected), std::string::npos) << "no '" << expected << "' in\n"
                                                             << result.out;
   }

@@ -1,7 +1,8 @@
 // map_publisher: a stand-in for occmapd's LCM side in the transport tests. It publishes scene maps
-// (tests/map_scenes.h) through MapEncoder and LcmBus at a steady rate, can leave sequence numbers
-// out and send undecodable messages first (to test what receivers count), and can answer status
-// requests as the daemon would.
+// (tests/map_scenes.h) through MapEncoder and LcmBus at a steady rate, with each map its zones and
+// tracks if asked (tests/footprint_scenes.h), can leave sequence numbers out and send undecodable
+// messages first (to test what receivers count), and can answer status requests as the daemon
+// would.
 #include <chrono>
 #include <cstdio>
 #include <set>
@@ -13,7 +14,9 @@
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 
+#include "footprint_scenes.h"
 #include "map_scenes.h"
+#include "transport/footprints_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
 
@@ -41,6 +44,7 @@ struct Options {
   std::vector<std::int64_t> drop;
   int garbage = 0;
   double answer_status = 0;
+  bool zones_and_tracks = false;
 };
 
 // Answers status requests for `seconds` with a made-up daemon of two cameras.
@@ -107,6 +111,13 @@ int publishMaps(LcmBus& bus, const Options& o) {
   auto next = std::chrono::steady_clock::now();
   int published = 0, failed = 0;
   std::size_t largest = 0;
+  std::vector<std::uint8_t> buffer;
+  // As occmapd's: a map's zones right after it; here its tracks too (the detector keeping up).
+  const auto publishBeside = [&](const std::string& channel, const auto& message) {
+    buffer.resize(static_cast<std::size_t>(message.getEncodedSize()));
+    message.encode(buffer.data(), 0, static_cast<int>(buffer.size()));
+    if (!bus.publish(channel, buffer)) ++failed;
+  };
   for (int n = 0; n < o.count; ++n) {
     const std::int64_t seq = o.first_seq + n;
     std::this_thread::sleep_until(next);
@@ -124,6 +135,10 @@ int publishMaps(LcmBus& bus, const Options& o) {
       ++published;
     } else {
       ++failed;
+    }
+    if (o.zones_and_tracks) {
+      publishBeside(zonesChannel(o.channel), testing::sceneZones(seq, frame.utime));
+      publishBeside(tracksChannel(o.channel), testing::sceneTracks(seq, frame.utime));
     }
   }
   std::printf("published %d maps (%s, %d x %d, largest message %zu bytes), %d failed\n", published,
@@ -148,6 +163,8 @@ int main(int argc, char** argv) {
   app.add_option("--first-seq", o.first_seq);
   app.add_option("--drop", o.drop, "Sequence numbers not to send");
   app.add_option("--garbage", o.garbage, "Undecodable messages to send before the maps");
+  app.add_flag("--zones-and-tracks", o.zones_and_tracks,
+               "After each map, its zones_t and tracks_t (tests/footprint_scenes.h)");
   app.add_option("--answer-status", o.answer_status,
                  "Instead of maps, answer status requests for this many seconds");
   CLI11_PARSE(app, argc, argv);

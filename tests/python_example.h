@@ -45,13 +45,17 @@ class PythonExampleLive : public ::testing::Test {
     if (!problem.empty()) GTEST_SKIP() << problem;
   }
 
-  // Runs the script on the network while the publisher runs each of `runs`; returns its output.
+  // Runs the script (with `options` besides the URL, --count and --timeout) on the network while
+  // the publisher runs each of `runs`; returns its output.
   std::string receive(const std::string& url, int maps,
-                      const std::vector<std::vector<std::string>>& runs) {
+                      const std::vector<std::vector<std::string>>& runs,
+                      const std::vector<std::string>& options = {}) {
     using namespace std::chrono_literals;
-    ChildProcess script({kPython, kScript, "--types", kTypes, "--lcm-url", url, "--count",
-                         std::to_string(maps), "--timeout", "15"},
-                        folder_ / "script");
+    std::vector<std::string> arguments = {kPython,     kScript, "--types", kTypes,
+                                          "--lcm-url", url,     "--count", std::to_string(maps),
+                                          "--timeout", "15"};
+    arguments.insert(arguments.end(), options.begin(), options.end());
+    ChildProcess script(arguments, folder_ / "script");
     EXPECT_TRUE(script.waitForOutput("listening for maps", 10s)) << script.out() << script.err();
     for (std::vector<std::string> run : runs) {
       run.insert(run.begin(), kPublisher);

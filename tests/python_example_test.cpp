@@ -2,10 +2,12 @@
 // python3: it decodes every map of an LCM log written by LCM's own C++ API (raw and zstd, with
 // other channels and a damaged message in between), and every map a live publisher sends over UDP
 // multicast, in single datagrams and in fragments (512 x 512 raw maps, which need a larger receive
-// buffer than a stock kernel allows, are python_example_raw_test).
+// buffer than a stock kernel allows, are python_example_raw_test); and the zones and tracks
+// published beside the maps, in a log and live.
 #include "python_example.h"
 
 #include <cmath>
+#include <cstdarg>
 #include <map>
 #include <sstream>
 
@@ -13,7 +15,9 @@
 #include <lcm/lcm-cpp.hpp>
 #include <occmap/status_t.hpp>
 
+#include "footprint_scenes.h"
 #include "map_scenes.h"
+#include "transport/footprints_message.h"
 #include "transport/map_codec.h"
 
 namespace occmap {
@@ -183,6 +187,178 @@ TEST_F(PythonExampleLive, ReceivesMapsInDatagramsAndFragments) {
     MapFrame frame(MapGeometry{-0.5, -1.5, 0.02, seq < 10 ? 512 : 256, seq < 10 ? 512 : 256}, 4);
     testing::fillScene(frame, seq);
     expectPrinted(printed, frame, testing::sceneCameraNames(4));
+  }
+}
+
+__attribute__((format(printf, 1, 2))) std::string printed(const char* pattern, ...) {
+  char text[512];
+  va_list values;
+  va_start(values, pattern);
+  std::vsnprintf(text, sizeof text, pattern, values);
+  va_end(values);
+  return text;
+}
+
+// The line the script prints for a zones_t, from its fields: "zones seq S: " and, per zone, its
+// name, state and for how long, with its occupied or unseen cells.
+std::string zonesLine(const occmap::zones_t& zones) {
+  const char* states[] = {"free", "occupied", "unseen"};
+  std::string line = printed("zones seq %lld: ", static_cast<long long>(zones.seq));
+  for (std::size_t k = 0; k < zones.zones.size(); ++k) {
+    const occmap::zone_t& zone = zones.zones[k];
+    line += printed("%s%s %s for %.1f s", k == 0 ? "" : ", ", zone.name.c_str(), states[zone.state],
+                    zone.state_s);
+    if (zone.occupied_cells != 0) {
+      line += printed(" (%d of %d cells occupied)", zone.occupied_cells, zone.cells);
+    } else if (zone.unseen_cells != 0) {
+      line += printed(" (%d of %d cells unseen)", zone.unseen_cells, zone.cells);
+    }
+  }
+  return line + "\n";
+}
+
+// The line for a tracks_t: "tracks seq S: N tracked: #ID at (X, Y) m moving V m/s, ...; F
+// footprints".
+std::string tracksLine(const occmap::tracks_t& tracks) {
+  std::string line = printed("tracks seq %lld: ", static_cast<long long>(tracks.seq));
+  if (tracks.tracks.empty()) line += "none tracked";
+  for (std::size_t k = 0; k < tracks.tracks.size(); ++k) {
+    const occmap::track_t& t = tracks.tracks[k];
+    if (k == 0) line += printed("%zu tracked: ", tracks.tracks.size());
+    line += printed("%s#%d at (%.2f, %.2f) m moving %.2f m/s", k == 0 ? "" : ", ", t.id, t.x_m,
+                    t.y_m, std::hypot(t.vx_m_s, t.vy_m_s));
+  }
+  const std::size_t found = tracks.footprints.size();
+  return line + printed("; %zu footprint%s\n", found, found == 1 ? "" : "s");
+}
+
+std::size_t countLines(const std::string& out, const std::string& start) {
+  std::size_t lines = 0;
+  for (std::size_t at = out.find("\n" + start); at != std::string::npos;
+       at = out.find("\n" + start, at + 1)) {
+    ++lines;
+  }
+  return lines;
+}
+
+template <typename Message>
+std::vector<std::uint8_t> encoded(const Message& message) {
+  std::vector<std::uint8_t> data(static_cast<std::size_t>(message.getEncodedSize()));
+  message.encode(data.data(), 0, static_cast<int>(data.size()));
+  return data;
+}
+
+// Three seconds of maps with their zones and tracks, as occmapd logs them (lcm-logger): every
+// zones_t and tracks_t printed with --every 0; by default the first, then one a second of their
+// time, and the zones whenever one changes state; damaged ones said and counted.
+TEST(PythonExample, PrintsTheZonesAndTracksBesideTheMapsOfAnLcmLog) {
+  if (const std::string why = missingPython(); !why.empty()) GTEST_SKIP() << why;
+  TemporaryFolder folder;
+  const auto log_file = folder / "maps.lcmlog";
+  constexpr std::int64_t kMaps = 90;
+  constexpr std::int64_t kFirstUtime = 1'700'000'000'000'000;
+  std::vector<occmap::zones_t> zones;
+  std::vector<occmap::tracks_t> tracks;
+  {
+    LogWriter log(log_file);
+    const MapGeometry geometry{0, 0, 0.05, 64, 48};
+    MapEncoder encoder(geometry, testing::sceneCameraNames(2), MapEncoding::kRaw);
+    for (std::int64_t seq = 0; seq < kMaps; ++seq) {
+      MapFrame frame(geometry, 2);
+      frame.seq = seq;
+      frame.utime = kFirstUtime + seq * 33'333;
+      testing::fillScene(frame, seq);
+      log.write("OCCMAP_MAP", encoder.encode(frame));
+      zones.push_back(testing::sceneZones(seq, frame.utime));
+      log.write(zonesChannel("OCCMAP_MAP"), encoded(zones.back()));
+      tracks.push_back(testing::sceneTracks(seq, frame.utime));
+      log.write(tracksChannel("OCCMAP_MAP"), encoded(tracks.back()));
+    }
+    // Damaged: a zones_t cut short, one with a byte too many, a tracks_t with a negative count.
+    const std::vector<std::uint8_t> whole = encoded(zones.front());
+    log.write("OCCMAP_MAP_ZONES", std::span(whole).first(whole.size() - 3));
+    std::vector<std::uint8_t> longer = whole;
+    longer.push_back(0);
+    log.write("OCCMAP_MAP_ZONES", longer);
+    std::vector<std::uint8_t> negative = encoded(tracks.front());
+    const std::size_t count_at = 8 + 8 + 8 + 4 + tracks.front().hostname.size() + 1;
+    negative[count_at] = 0xFF;
+    negative[count_at + 1] = 0xFF;
+    log.write("OCCMAP_MAP_TRACKS", negative);
+  }
+  auto result =
+      runCommand({kPython, kScript, "--types", kTypes, "--log", log_file.string(), "--every", "0"});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  EXPECT_NE(result.out.find("maps 90, lost 0 (seq gaps), undecodable 3, other channels 0, "
+                            "zones_t 90, tracks_t 90"),
+            std::string::npos)
+      << result.out;
+  for (std::int64_t seq = 0; seq < kMaps; ++seq) {
+    const std::string& zone_line = zonesLine(zones[static_cast<std::size_t>(seq)]);
+    EXPECT_NE(result.out.find("\n" + zone_line), std::string::npos)
+        << "no line '" << zone_line << "' in\n"
+        << result.out;
+    const std::string& track_line = tracksLine(tracks[static_cast<std::size_t>(seq)]);
+    EXPECT_NE(result.out.find("\n" + track_line), std::string::npos)
+        << "no line '" << track_line << "' in\n"
+        << result.out;
+  }
+  EXPECT_EQ(countLines(result.out, "zones seq "), static_cast<std::size_t>(kMaps)) << result.out;
+  EXPECT_EQ(countLines(result.out, "undecodable zones_t ("), 2u) << result.out;
+  EXPECT_EQ(countLines(result.out, "undecodable tracks_t ("), 1u) << result.out;
+
+  // Once a second of the messages' own time (and the zones on each change of state): these.
+  std::vector<std::int64_t> zone_seqs, track_seqs;
+  std::int64_t zones_printed_at = -1, tracks_printed_at = -1;
+  for (std::int64_t seq = 0; seq < kMaps; ++seq) {
+    const std::size_t k = static_cast<std::size_t>(seq);
+    const bool changed =
+        zone_seqs.empty() ||
+        zones[k].zones[0].state != zones[static_cast<std::size_t>(zone_seqs.back())].zones[0].state;
+    if (changed || zones[k].utime >= zones_printed_at + 1'000'000) {
+      zone_seqs.push_back(seq);
+      zones_printed_at = zones[k].utime;
+    }
+    if (track_seqs.empty() || tracks[k].utime >= tracks_printed_at + 1'000'000) {
+      track_seqs.push_back(seq);
+      tracks_printed_at = tracks[k].utime;
+    }
+  }
+  result = runCommand({kPython, kScript, "--types", kTypes, "--log", log_file.string()});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  for (const std::int64_t seq : zone_seqs) {
+    EXPECT_NE(result.out.find("\n" + zonesLine(zones[static_cast<std::size_t>(seq)])),
+              std::string::npos)
+        << "no line for the zones of seq " << seq << " in\n"
+        << result.out;
+  }
+  for (const std::int64_t seq : track_seqs) {
+    EXPECT_NE(result.out.find("\n" + tracksLine(tracks[static_cast<std::size_t>(seq)])),
+              std::string::npos)
+        << "no line for the tracks of seq " << seq << " in\n"
+        << result.out;
+  }
+  EXPECT_EQ(countLines(result.out, "zones seq "), zone_seqs.size()) << result.out;
+  EXPECT_EQ(countLines(result.out, "tracks seq "), track_seqs.size()) << result.out;
+  EXPECT_EQ(track_seqs.size(), 3u) << "about one a second over three seconds";
+  EXPECT_GT(zone_seqs.size(), track_seqs.size()) << "the zones' changes of state too";
+}
+
+// Live: each map's zones and tracks, printed with --every 0 as they come.
+TEST_F(PythonExampleLive, ReceivesTheZonesAndTracksPublishedWithTheMaps) {
+  const std::string out =
+      receive("udpm://239.255.76.67:7667?ttl=0", 10,
+              {{"--count", "10", "--rate", "30", "--zones-and-tracks"}}, {"--every", "0"});
+  EXPECT_NE(out.find("maps 10, lost 0 (seq gaps), undecodable 0"), std::string::npos) << out;
+  // The script stops at the tenth map, before that map's zones and tracks arrive.
+  for (std::int64_t seq = 0; seq < 9; ++seq) {
+    const std::string zone_line = zonesLine(testing::sceneZones(seq, 0));
+    EXPECT_NE(out.find("\n" + zone_line), std::string::npos) << "no line '" << zone_line << "' in\n"
+                                                             << out;
+    const std::string track_line = tracksLine(testing::sceneTracks(seq, 0));
+    EXPECT_NE(out.find("\n" + track_line), std::string::npos)
+        << "no line '" << track_line << "' in\n"
+        << out;
   }
 }
 

@@ -1,7 +1,10 @@
 // `occmap view` and `occmap status` against a live publisher over LCM's UDP multicast, with the
 // default URL, inside a network namespace of the test's own (tests/network_namespace.h).
+#include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -14,6 +17,10 @@
 #include "network_namespace.h"
 #include "temporary_folder.h"
 #include "timing.h"
+#include "tools/footprint_pictures.h"
+#include "transport/footprints_message.h"
+#include "transport/lcm_bus.h"
+#include "transport/map_codec.h"
 
 namespace occmap {
 namespace {
@@ -152,6 +159,228 @@ TEST_F(LiveLcm, ViewReceivesRawMapsInFragments) {
   ASSERT_TRUE(code) << view->out() << view->err();
   EXPECT_EQ(*code, 0) << view->out() << view->err();
   EXPECT_NE(view->out().find("received 20 maps"), std::string::npos) << view->out();
+}
+
+// occmapd's side of the bus from within the test: maps of the scene (tests/map_scenes.h) and the
+// zones_t and tracks_t that follow them, built with the generated types, on the default URL and
+// channels.
+class FakeDaemon {
+ public:
+  static constexpr MapGeometry kGeometry{-0.5, -1.5, 0.02, 512, 512};
+
+  FakeDaemon()
+      : bus_("udpm://239.255.76.67:7667?ttl=0"),
+        encoder_(kGeometry, testing::sceneCameraNames(4), MapEncoding::kZstd),
+        frame_(kGeometry, 4) {}
+  bool good() const { return bus_.good(); }
+
+  // Map `seq` of the scene; returns its utime.
+  std::int64_t publishMap(std::int64_t seq) {
+    frame_.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                       std::chrono::system_clock::now().time_since_epoch())
+                       .count();
+    testing::fillScene(frame_, seq);
+    EXPECT_TRUE(bus_.publish("OCCMAP_MAP", encoder_.encode(frame_)));
+    return frame_.utime;
+  }
+  void publishZones(const occmap::zones_t& zones) { publish(zonesChannel("OCCMAP_MAP"), zones); }
+  void publishTracks(const occmap::tracks_t& tracks) {
+    publish(tracksChannel("OCCMAP_MAP"), tracks);
+  }
+  void publishBytes(const std::string& channel, const std::vector<std::uint8_t>& bytes) {
+    EXPECT_TRUE(bus_.publish(channel, bytes));
+  }
+
+  template <typename Message>
+  static std::vector<std::uint8_t> encoded(const Message& message) {
+    std::vector<std::uint8_t> bytes(static_cast<std::size_t>(message.getEncodedSize()));
+    EXPECT_EQ(message.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+              static_cast<int>(bytes.size()));
+    return bytes;
+  }
+
+ private:
+  template <typename Message>
+  void publish(const std::string& channel, const Message& message) {
+    publishBytes(channel, encoded(message));
+  }
+
+  LcmBus bus_;
+  MapEncoder encoder_;
+  MapFrame frame_;
+};
+
+// A square zone, 2 m a side, in the scene's room.
+occmap::zones_t squareZone(std::int64_t seq, std::int64_t utime, std::int8_t state) {
+  occmap::zone_t zone{};
+  zone.name = "robot-cell";
+  zone.state = state;
+  zone.cells = 10000;
+  zone.occupied_cells = state == occmap::zone_t::OCCUPIED ? 120 : 0;
+  zone.corner_x_m = {1.0, 3.0, 3.0, 1.0};
+  zone.corner_y_m = {1.0, 1.0, 3.0, 3.0};
+  zone.num_corners = 4;
+  occmap::zones_t zones{};
+  zones.utime = utime;
+  zones.seq = seq;
+  zones.hostname = "test-host";
+  zones.zones = {zone};
+  zones.num_zones = 1;
+  return zones;
+}
+
+// One person found and followed, walking towards +y at 0.5 m/s, outside the zone.
+occmap::tracks_t onePerson(std::int64_t seq, std::int64_t utime) {
+  occmap::tracks_t tracks{};
+  tracks.utime = utime;
+  tracks.seq = seq;
+  tracks.hostname = "test-host";
+  tracks.footprints = {occmap::footprint_t{4.5, 2.0, 0.25, 0.6, 1.75}};
+  tracks.num_footprints = 1;
+  occmap::track_t track{};
+  track.id = 7;
+  track.x_m = 4.5;
+  track.y_m = 2.0;
+  track.vx_m_s = 0.0;
+  track.vy_m_s = 0.5;
+  track.area_m2 = 0.25;
+  track.age_s = 3.0;
+  tracks.tracks = {track};
+  tracks.num_tracks = 1;
+  return tracks;
+}
+
+// Where a floor point lands in view's picture of a kGeometry map: +x right, +y up, from the
+// map's origin at the bottom left, as many pixels a cell as the picture is wider than the map.
+cv::Point pixelOf(const cv::Mat& picture, double x, double y) {
+  const MapGeometry& g = FakeDaemon::kGeometry;
+  const double scale = static_cast<double>(picture.cols) / g.width;
+  return {static_cast<int>(std::lround((x - g.origin_x_m) / g.cell_size_m * scale)),
+          static_cast<int>(std::lround((g.height - (y - g.origin_y_m) / g.cell_size_m) * scale))};
+}
+
+cv::Vec3b bgr(const cv::Scalar& colour) {
+  return {static_cast<std::uint8_t>(colour[0]), static_cast<std::uint8_t>(colour[1]),
+          static_cast<std::uint8_t>(colour[2])};
+}
+
+// Points along the middle three fifths of each edge of a zone's polygon, in the picture.
+std::vector<cv::Point> alongEdges(const cv::Mat& picture, const occmap::zone_t& zone) {
+  std::vector<cv::Point> points;
+  for (std::size_t k = 0; k < zone.corner_x_m.size(); ++k) {
+    const std::size_t next = (k + 1) % zone.corner_x_m.size();
+    for (double t = 0.2; t <= 0.8; t += 0.05) {
+      points.push_back(
+          pixelOf(picture, zone.corner_x_m[k] + t * (zone.corner_x_m[next] - zone.corner_x_m[k]),
+                  zone.corner_y_m[k] + t * (zone.corner_y_m[next] - zone.corner_y_m[k])));
+    }
+  }
+  return points;
+}
+
+int countPixels(const cv::Mat& picture, const cv::Scalar& colour) {
+  int count = 0;
+  picture.forEach<cv::Vec3b>(
+      [&](const cv::Vec3b& pixel, const int*) { count += pixel == bgr(colour); });
+  return count;
+}
+
+// What a site watching occmapd sees: each map with its own zones (free on map 1, occupied on map
+// 2, which the picture must show) and the newest tracks, which lag the maps (found on map 1, drawn
+// on map 2); and the line each second saying them.
+TEST_F(LiveLcm, ViewDrawsEachMapsZonesAndTheNewestTracks) {
+  const std::string png = (folder_ / "last.png").string();
+  auto view = startView({"--count", "3", "--png", png, "--timeout", "20"});
+  FakeDaemon daemon;
+  ASSERT_TRUE(daemon.good());
+  std::int64_t utime = daemon.publishMap(0);
+  daemon.publishZones(squareZone(0, utime, occmap::zone_t::FREE));
+  daemon.publishTracks(onePerson(0, utime));
+  EXPECT_TRUE(view->waitForOutput("lost 0  tracks 1  zones: robot-cell free", 5s))
+      << "no line saying the track and the zone's state:\n"
+      << view->out() << view->err();
+  // As occmapd sends them: each map then its zones; the tracks after the map they were found on,
+  // here too late for the next map's turn.
+  utime = daemon.publishMap(1);
+  daemon.publishZones(squareZone(1, utime, occmap::zone_t::FREE));
+  daemon.publishTracks(onePerson(1, utime));
+  utime = daemon.publishMap(2);
+  const occmap::zones_t zones = squareZone(2, utime, occmap::zone_t::OCCUPIED);
+  daemon.publishZones(zones);
+
+  const auto code = view->waitExit(20s);
+  ASSERT_TRUE(code) << "occmap view did not stop after 3 maps:\n" << view->out() << view->err();
+  const std::string out = view->out();
+  ASSERT_EQ(*code, 0) << out << view->err();
+  EXPECT_EQ(view->err(), "");
+  EXPECT_NE(out.find("summary: received 3 maps"), std::string::npos) << out;
+  EXPECT_NE(out.find("; zones_t: received 3, undecodable 0; tracks_t: received 2, undecodable 0"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("(the last map, seq 2, as a floor plan: +y up; with its zones; with the "
+                     "tracks found on map 1)"),
+            std::string::npos)
+      << out;
+
+  const cv::Mat picture = cv::imread(png);
+  ASSERT_FALSE(picture.empty()) << "no picture at " << png;
+  ASSERT_NE(bgr(tools::kZoneOccupiedColour), bgr(tools::kZoneFreeColour));
+  // The zone's outline in map 1's state: occupied, all along its edges; map 0's state nowhere.
+  int wrong = 0;
+  const std::vector<cv::Point> edges = alongEdges(picture, zones.zones[0]);
+  for (const cv::Point& at : edges) {
+    wrong += picture.at<cv::Vec3b>(at) != bgr(tools::kZoneOccupiedColour);
+  }
+  EXPECT_EQ(wrong, 0) << "of " << edges.size() << " points along the zone's edges, not in red";
+  EXPECT_EQ(countPixels(picture, tools::kZoneFreeColour), 0) << "map 1's zones drawn on map 2";
+  // The track: a dot at its place, an arrow along 1 s of its motion; its footprint a circle.
+  const occmap::track_t track = onePerson(0, 0).tracks[0];
+  const cv::Point at = pixelOf(picture, track.x_m, track.y_m);
+  EXPECT_EQ(picture.at<cv::Vec3b>(at), bgr(tools::kTrackColour)) << "no track at " << at;
+  // Three quarters along the arrow: past the dot and the footprint's circle.
+  const double along_s = 0.75 * tools::kTrackArrowSeconds;
+  const cv::Point on_arrow =
+      pixelOf(picture, track.x_m + along_s * track.vx_m_s, track.y_m + along_s * track.vy_m_s);
+  EXPECT_EQ(picture.at<cv::Vec3b>(on_arrow), bgr(tools::kTrackColour))
+      << "no arrow through " << on_arrow;
+  const cv::Point on_circle = at - cv::Point(tools::kFootprintRadiusPx, 0);
+  EXPECT_EQ(picture.at<cv::Vec3b>(on_circle), bgr(tools::kFootprintColour))
+      << "no footprint circle through " << on_circle;
+}
+
+// Bytes on the zones and tracks channels that are not a message are counted, and nothing of them
+// is drawn.
+TEST_F(LiveLcm, ViewCountsUndecodableZonesAndTracksAndDrawsNone) {
+  const std::string png = (folder_ / "last.png").string();
+  auto view = startView({"--count", "1", "--png", png, "--timeout", "20"});
+  FakeDaemon daemon;
+  ASSERT_TRUE(daemon.good());
+  const std::int64_t utime = daemon.publishMap(0);
+  // The zones of that very map, one byte short: the decoder refuses them.
+  const occmap::zones_t zones = squareZone(0, utime, occmap::zone_t::OCCUPIED);
+  std::vector<std::uint8_t> bytes = FakeDaemon::encoded(zones);
+  bytes.pop_back();
+  daemon.publishBytes(zonesChannel("OCCMAP_MAP"), bytes);
+  daemon.publishBytes(tracksChannel("OCCMAP_MAP"), std::vector<std::uint8_t>(100, 7));
+
+  const auto code = view->waitExit(20s);
+  ASSERT_TRUE(code) << view->out() << view->err();
+  const std::string out = view->out();
+  ASSERT_EQ(*code, 0) << out << view->err();
+  EXPECT_NE(out.find("; zones_t: received 0, undecodable 1; tracks_t: received 0, undecodable 1"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(view->err().find("an undecodable message on OCCMAP_MAP_ZONES"), std::string::npos)
+      << view->err();
+  EXPECT_NE(view->err().find("an undecodable message on OCCMAP_MAP_TRACKS"), std::string::npos)
+      << view->err();
+  const cv::Mat picture = cv::imread(png);
+  ASSERT_FALSE(picture.empty()) << "no picture at " << png;
+  for (const cv::Point& at : alongEdges(picture, zones.zones[0])) {
+    ASSERT_NE(picture.at<cv::Vec3b>(at), bgr(tools::kZoneOccupiedColour)) << at;
+  }
+  EXPECT_EQ(countPixels(picture, tools::kZoneOccupiedColour), 0);
+  EXPECT_EQ(countPixels(picture, tools::kTrackColour), 0);
 }
 
 TEST_F(LiveLcm, ViewExitsThreeWhenNoMapArrives) {

@@ -118,6 +118,14 @@ void OfflineFootprints::scoreAgainst(const std::vector<sim::SceneObject>& object
   if (tracker_) track_score_.addFrame(things_, thing_ids_, followed_, followed_ids_);
   people_score_.addFrame(people_, found_);
   object_score_.addFrame(things_, found_);
+  for (std::size_t kind = 0; kind < std::size(kind_score_); ++kind) {
+    kind_points_.clear();
+    for (const sim::SceneObject& object : objects) {
+      if (static_cast<std::size_t>(object.kind) != kind) continue;
+      kind_points_.push_back({object.solid.centre.x(), object.solid.centre.y()});
+    }
+    kind_score_[kind].addFrame(kind_points_, found_);
+  }
 }
 
 bool OfflineFootprints::finishFiles(const char* command, std::uint64_t maps, double seconds) {
@@ -156,6 +164,17 @@ bool OfflineFootprints::finishFiles(const char* command, std::uint64_t maps, dou
       };
       print("objects, people among them", object_score_.score());
       print("people alone (objects found count as false positives)", people_score_.score());
+      std::printf("found within 0.5 m, by kind:");
+      const char* separator = " ";
+      for (std::size_t kind = 0; kind < std::size(kind_score_); ++kind) {
+        const DetectionScore& s = kind_score_[kind].score();
+        if (s.people == 0) continue;
+        std::printf("%s%s %.1f %% of %zu", separator,
+                    std::string(sim::objectKindName(static_cast<sim::ObjectKind>(kind))).c_str(),
+                    100 * s.recall(), s.people);
+        separator = ", ";
+      }
+      std::printf("\n");
     }
   }
   return true;

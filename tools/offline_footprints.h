@@ -66,6 +66,9 @@ class OfflineFootprints {
   std::vector<FloorPoint> found_, followed_, people_, things_;
   std::vector<std::int64_t> followed_ids_, thing_ids_;
   DetectionScorer people_score_, object_score_;
+  // Each kind of object alone against every detection: how many of each are found.
+  std::vector<FloorPoint> kind_points_;
+  DetectionScorer kind_score_[4];  // by sim::ObjectKind
   TrackScorer track_score_;
 };
 

@@ -1,5 +1,5 @@
 // occmap view: watch the maps occmapd broadcasts over LCM: rate, latency, losses, and the maps
-// themselves as a picture or a video.
+// themselves as a picture or a video, with the zones and tracks found on them.
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -11,6 +11,8 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <string>
+#include <utility>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -20,7 +22,9 @@
 #include "config/exit_codes.h"
 #include "config/input_error.h"
 #include "tools/commands.h"
+#include "tools/footprints_heard.h"
 #include "tools/pictures.h"
+#include "transport/footprints_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
 
@@ -86,20 +90,28 @@ struct Latency {
   double mean() const { return maps > 0 ? sum_ms / static_cast<double>(maps) : 0.0; }
 };
 
+// A map kept to be drawn: it is drawn when the next map arrives, or at the end.
+struct HeldMap {
+  OccupancyMap map;
+  std::int64_t seq = 0;
+  std::int64_t utime = 0;
+};
+
 class Viewer {
  public:
-  explicit Viewer(const ViewOptions& options) : o_(options) {}
+  explicit Viewer(const ViewOptions& options)
+      : o_(options),
+        zones_channel_(zonesChannel(options.channel)),
+        tracks_channel_(tracksChannel(options.channel)) {}
 
-  void onMessage(const std::uint8_t* data, std::size_t size, std::int64_t recv_utime) {
+  const std::string& zonesChannelName() const { return zones_channel_; }
+  const std::string& tracksChannelName() const { return tracks_channel_; }
+
+  void onMap(const std::uint8_t* data, std::size_t size, std::int64_t recv_utime) {
+    if (closing_) return;
     const DecodedMap& map = decoder_.decode(data, size);
     if (!map.ok()) {
-      ++undecodable_;
-      ++interval_undecodable_;
-      if (undecodable_ <= 5) {
-        std::fprintf(stderr, "occmap view: an undecodable message on %s (%zu bytes): %s%s\n",
-                     o_.channel.c_str(), size, map.error.c_str(),
-                     undecodable_ == 5 ? " (no more of these are shown)" : "");
-      }
+      refuse(++undecodable_, o_.channel, size, map.error);
       return;
     }
     ++received_;
@@ -127,8 +139,37 @@ class Viewer {
     const auto occupied = std::count(map.cells.begin(), map.cells.end(),
                                      static_cast<std::uint8_t>(CellState::kOccupied));
     interval_occupied_ = static_cast<double>(occupied) / static_cast<double>(map.cells.size());
-    if (!o_.png.empty() || !o_.video.empty()) last_map_ = map.toOccupancyMap();
-    if (!o_.video.empty() && !video_failed_) writeVideoFrame();
+    if (drawsPictures()) {
+      // A map is drawn when the next one arrives, or at the end (finish): its zones_t is sent right
+      // after it, so by then it has come. (Its tracks come later still: a map is drawn with the
+      // newest tracks found on it or on an earlier map.)
+      if (held_ && !o_.video.empty() && !video_failed_) writeVideoFrame(picture(*held_));
+      held_ = HeldMap{map.toOccupancyMap(), map.seq, map.utime};
+    }
+  }
+
+  void onZones(const std::uint8_t* data, std::size_t size) {
+    std::string error;
+    if (!heard_.takeZones(data, size, error)) {
+      refuse(heard_.zonesCount().undecodable, zones_channel_, size, error);
+    }
+  }
+
+  void onTracks(const std::uint8_t* data, std::size_t size) {
+    std::string error;
+    if (!heard_.takeTracks(data, size, error)) {
+      refuse(heard_.tracksCount().undecodable, tracks_channel_, size, error);
+    }
+  }
+
+  // The run has ended: no more maps are taken, but the last one's zones_t may still come.
+  void stopTakingMaps() { closing_ = true; }
+  bool drawsPictures() const { return !o_.png.empty() || !o_.video.empty(); }
+  // Whether the last map is to be drawn and its zones_t has not come yet, though the daemon sends
+  // zones (some zones_t was heard; after a single map that cannot be told yet).
+  bool awaitsLastZones() const {
+    if (!held_ || heard_.zonesOf(held_->seq) != nullptr) return false;
+    return heard_.zonesCount().any() || received_ == 1;
   }
 
   // One line on the second that just ended.
@@ -139,10 +180,10 @@ class Viewer {
     } else {
       std::printf(
           "%5.0f s  %4lld maps/s  latency mean %6.1f ms, max %6.1f ms  occupied %5.2f %%  lost %lld"
-          "%s\n",
+          "%s%s\n",
           elapsed_s, static_cast<long long>(interval_latency_.maps), interval_latency_.mean(),
           interval_latency_.max_ms, 100.0 * interval_occupied_,
-          static_cast<long long>(interval_lost_),
+          static_cast<long long>(interval_lost_), heard_.newestText().c_str(),
           interval_undecodable_ > 0 ? "  (and undecodable messages)" : "");
     }
     std::fflush(stdout);
@@ -153,6 +194,7 @@ class Viewer {
 
   // Writes the picture, closes the video and prints the summary; returns the exit code.
   int finish(double elapsed_s, bool timed_out) {
+    if (held_ && !o_.video.empty() && !video_failed_) writeVideoFrame(picture(*held_));
     if (writer_.isOpened()) writer_.release();
     std::printf(
         "summary: received %lld maps in %.2f s (%.1f maps/s), lost %lld (%lld seq gaps), "
@@ -165,7 +207,7 @@ class Viewer {
       std::printf("; latency mean %.2f ms, max %.2f ms", total_latency_.mean(),
                   total_latency_.max_ms);
     }
-    std::printf("\n");
+    std::printf("%s\n", heard_.countsText().c_str());
     if (received_ == 0) {
       if (timed_out) {
         std::fprintf(stderr,
@@ -180,9 +222,10 @@ class Viewer {
     }
     int code = kExitOk;
     if (!o_.png.empty()) {
-      if (cv::imwrite(o_.png, floorPlan(*last_map_, scaleFor(last_map_->geometry)))) {
-        std::printf("wrote %s (the last map, seq %lld, as a floor plan: +y up)\n", o_.png.c_str(),
-                    static_cast<long long>(*last_seq_));
+      if (cv::imwrite(o_.png, picture(*held_))) {
+        std::printf("wrote %s (the last map, seq %lld, as a floor plan: +y up%s)\n", o_.png.c_str(),
+                    static_cast<long long>(held_->seq),
+                    heard_.drawnText(held_->seq, held_->utime).c_str());
       } else {
         std::fprintf(stderr, "occmap view: cannot write %s\n", o_.png.c_str());
         code = kExitFailure;
@@ -210,8 +253,27 @@ class Viewer {
     return std::max(1, 600 / std::max(g.width, g.height));
   }
 
-  void writeVideoFrame() {
-    cv::Mat plan = floorPlan(*last_map_, scaleFor(last_map_->geometry));
+  // The map as a floor plan, with its zones and the tracks found on it or just before.
+  cv::Mat picture(const HeldMap& held) const {
+    const int scale = scaleFor(held.map.geometry);
+    cv::Mat plan = floorPlan(held.map, scale);
+    heard_.draw(plan, held.map.geometry, scale, held.seq, held.utime);
+    return plan;
+  }
+
+  // A message that could not be decoded, the `undecodable`th on its channel: the first few are
+  // shown.
+  void refuse(std::int64_t undecodable, const std::string& channel, std::size_t size,
+              const std::string& why) {
+    ++interval_undecodable_;
+    if (undecodable <= 5) {
+      std::fprintf(stderr, "occmap view: an undecodable message on %s (%zu bytes): %s%s\n",
+                   channel.c_str(), size, why.c_str(),
+                   undecodable == 5 ? " (no more of these are shown)" : "");
+    }
+  }
+
+  void writeVideoFrame(cv::Mat plan) {
     if (!writer_.isOpened()) {
       video_size_ = plan.size();
       // Motion JPEG in AVI plays everywhere. FFmpeg's encoder first: OpenCV's own (for builds
@@ -238,6 +300,7 @@ class Viewer {
   }
 
   const ViewOptions& o_;
+  const std::string zones_channel_, tracks_channel_;
   MapDecoder decoder_;
   std::int64_t received_ = 0, lost_ = 0, gaps_ = 0, undecodable_ = 0;
   std::optional<std::int64_t> last_seq_;
@@ -245,7 +308,9 @@ class Viewer {
   Latency interval_latency_, total_latency_;
   std::int64_t interval_lost_ = 0, interval_undecodable_ = 0;
   double interval_occupied_ = 0;
-  std::optional<OccupancyMap> last_map_;
+  std::optional<HeldMap> held_;  // the last map, when it is to be drawn
+  FootprintsHeard heard_;
+  bool closing_ = false;
   cv::VideoWriter writer_;
   cv::Size video_size_;
   bool video_failed_ = false;
@@ -272,15 +337,24 @@ int run(const ViewOptions& o) {
     return kExitFailure;
   }
   Viewer viewer(o);
-  if (!bus.subscribe(o.channel, [&viewer](const std::uint8_t* data, std::size_t size,
-                                          std::int64_t recv_utime) {
-        viewer.onMessage(data, size, recv_utime);
-      })) {
-    std::fprintf(stderr, "occmap view: failed: cannot subscribe to %s at %s\n", o.channel.c_str(),
-                 o.lcm_url.c_str());
-    return kExitFailure;
+  const std::pair<const std::string&, Bus::Handler> channels[] = {
+      {o.channel, [&viewer](const std::uint8_t* data, std::size_t size,
+                            std::int64_t recv_utime) { viewer.onMap(data, size, recv_utime); }},
+      {viewer.zonesChannelName(), [&viewer](const std::uint8_t* data, std::size_t size,
+                                            std::int64_t) { viewer.onZones(data, size); }},
+      {viewer.tracksChannelName(), [&viewer](const std::uint8_t* data, std::size_t size,
+                                             std::int64_t) { viewer.onTracks(data, size); }},
+  };
+  for (const auto& [channel, handler] : channels) {
+    if (!bus.subscribe(channel, handler)) {
+      std::fprintf(stderr, "occmap view: failed: cannot subscribe to %s at %s\n", channel.c_str(),
+                   o.lcm_url.c_str());
+      return kExitFailure;
+    }
   }
-  std::printf("listening for maps on %s at %s\n", o.channel.c_str(), o.lcm_url.c_str());
+  std::printf("listening for maps on %s, zones on %s and tracks on %s at %s\n", o.channel.c_str(),
+              viewer.zonesChannelName().c_str(), viewer.tracksChannelName().c_str(),
+              o.lcm_url.c_str());
   std::fflush(stdout);
 
   const StopSignals signals;
@@ -316,7 +390,21 @@ int run(const ViewOptions& o) {
       return kExitFailure;
     }
   }
-  return viewer.finish(std::chrono::duration<double>(Clock::now() - start).count(), timed_out);
+  const double elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
+  if (viewer.drawsPictures()) {
+    // The last map's zones_t follows it on the wire and may not have been read when the run ends:
+    // wait a moment for it (maps that come meanwhile are not taken), then take what else has come
+    // already (the tracks sent after it).
+    viewer.stopTakingMaps();
+    const auto give_up = Clock::now() + std::chrono::milliseconds(250);
+    while (viewer.awaitsLastZones() && Clock::now() < give_up) {
+      if (bus.handleTimeout(10) < 0) break;
+    }
+    for (int k = 0; k < 100; ++k) {
+      if (bus.handleTimeout(0) <= 0) break;
+    }
+  }
+  return viewer.finish(elapsed_s, timed_out);
 }
 
 }  // namespace
@@ -326,13 +414,24 @@ Command addViewCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand(
       "view",
       "Watch the maps occmapd broadcasts over LCM.\n"
-      "Subscribes to the map channel and prints one line per second: maps received, the latency "
-      "from each map's time (the capture time of its newest camera frame) to its receipt here "
-      "(mean and max; across machines this needs their clocks in step), the occupied share of "
-      "the last map, and maps lost (gaps in the maps' seq numbers). At the end it prints a "
+      "Subscribes to the map channel (and to the zones and tracks found on the maps) and prints "
+      "one line per second: maps received, the latency from each map's time (the capture time of "
+      "its newest camera frame) to its receipt here (mean and max; across machines this needs "
+      "their clocks in step), the occupied share of the last map, and maps lost (gaps in the "
+      "maps' seq numbers). At the end it prints a "
       "summary (maps received, lost, undecodable) and writes the last map as a picture "
       "(--png) and every map as a video (--video), drawn as floor plans: +y up, with a scale "
       "bar; white free, black occupied, blue-grey unseen.\n"
+      "Over them it draws what occmapd finds on the maps, heard on the map channel's name + "
+      "_ZONES and + _TRACKS: each zone's outline in its state's colour (green free, red "
+      "occupied, amber unseen) with its name and state, as the zones_t of that very map says; "
+      "each footprint (a detection) as a hollow circle, and each confirmed track as a blue dot "
+      "with its id and an arrow of one second's motion, from the newest tracks_t found on that map "
+      "or an earlier one (the detector lags the maps a little; tracks more than a second older "
+      "than the map are not drawn). The line each second then ends with the number of tracks and "
+      "the zones' states (tracks 2  zones: robot-cell occupied, door free), and the summary counts "
+      "the zones_t and tracks_t received and undecodable. A map is drawn once the next one has "
+      "come, or at the end, when view waits up to 0.25 s for the last map's zones.\n"
       "It runs until --count maps, --seconds, Ctrl-C, or --timeout seconds without a map.\n"
       "Raw (unencoded) maps of 512 x 512 cells arrive in LCM fragments: give the receiver a "
       "large socket buffer with ?recv_buf_size=4194304 in the URL (Linux caps it at "
@@ -348,7 +447,10 @@ Command addViewCommand(CLI::App& app) {
       ->add_option("--lcm-url", options->lcm_url,
                    "LCM URL to listen on: the daemon's transport.lcm_url")
       ->capture_default_str();
-  command->add_option("--channel", options->channel, "Map channel (transport.map_channel)")
+  command
+      ->add_option("--channel", options->channel,
+                   "Map channel (transport.map_channel); zones and tracks are heard on its name + "
+                   "_ZONES and + _TRACKS")
       ->capture_default_str();
   command->add_option("--count", options->count, "Stop after this many maps")
       ->check(CLI::PositiveNumber);

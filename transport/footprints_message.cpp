@@ -23,7 +23,7 @@ bool skipArray(WireReader& in, std::size_t bytes) {
   return in.read(count) && count >= 0 && in.skip(static_cast<std::size_t>(count) * bytes);
 }
 
-// lcmtypes/tracks_t.lcm: footprint_t is 4 doubles, track_t an int32 and 7 doubles.
+// lcmtypes/tracks_t.lcm: footprint_t is 5 doubles, track_t an int32 and 7 doubles.
 const char* tracksLayoutError(const std::uint8_t* data, std::size_t size) {
   WireReader in(data, size);
   if (const char* why =
@@ -31,7 +31,7 @@ const char* tracksLayoutError(const std::uint8_t* data, std::size_t size) {
       *why != '\0') {
     return why;
   }
-  if (!skipArray(in, 4 * 8)) return "num_footprints is negative or the footprints are truncated";
+  if (!skipArray(in, 5 * 8)) return "num_footprints is negative or the footprints are truncated";
   if (!skipArray(in, 4 + 7 * 8)) return "num_tracks is negative or the tracks are truncated";
   if (in.remaining() != 0) return "bytes left over: the counts do not add up to the size";
   return "";

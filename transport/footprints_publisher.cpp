@@ -75,6 +75,7 @@ bool FootprintsPublisher::publishTracks(Bus& bus, std::int64_t seq, std::int64_t
     out.y_m = in.y_m;
     out.area_m2 = in.area_m2;
     out.score = in.score;
+    out.height_m = in.height_m;
   }
   tracks_.num_tracks = static_cast<std::int16_t>(shown_tracks);
   tracks_.tracks.resize(shown_tracks);

@@ -10,6 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/zones.h"
+
 namespace occmap {
 namespace {
 
@@ -117,7 +119,66 @@ std::string age(std::int64_t status_utime, std::int64_t capture_utime) {
   return format("%.1f s ago", ms / 1000.0);
 }
 
+// How long something has lasted: "3.2 s" under a minute, else as an uptime.
+std::string duration(double seconds) {
+  if (std::isfinite(seconds) && seconds >= 0 && seconds < 59.95) return format("%.1f s", seconds);
+  return uptime(seconds);
+}
+
+// A zone_t's state: "free", "occupied", "unseen" (core/zones.h); "state N" otherwise.
+std::string zoneStateText(int state) {
+  if (state < 0 || state > 2) return format("state %d", state);
+  return std::string(zoneStateName(static_cast<ZoneState>(state)));
+}
+
+std::string formatZones(const occmap::zones_t& z) {
+  if (z.zones.empty()) return "zones: none (a zones_t without zones)\n";
+  std::vector<std::string> names;
+  for (const occmap::zone_t& zone : z.zones) names.push_back(terminalText(zone.name));
+  std::size_t name_width = 0;
+  for (const std::string& name : names) name_width = std::max(name_width, name.size());
+  const int w = static_cast<int>(std::min<std::size_t>(name_width, 64));
+  std::string text;
+  for (std::size_t k = 0; k < z.zones.size(); ++k) {
+    const occmap::zone_t& zone = z.zones[k];
+    text += format("zone %-*s  %s for %s (%d of %d cells occupied", w, names[k].c_str(),
+                   zoneStateText(zone.state).c_str(), duration(zone.state_s).c_str(),
+                   zone.occupied_cells, zone.cells);
+    if (zone.unseen_cells != 0) text += format(", %d unseen", zone.unseen_cells);
+    text += ")\n";
+  }
+  return text;
+}
+
+std::string formatTracks(const occmap::tracks_t& t) {
+  const std::size_t tracked = t.tracks.size();
+  std::string text = tracked == 0   ? std::string("no one tracked")
+                     : tracked == 1 ? std::string("1 person tracked: ")
+                                    : format("%zu people tracked: ", tracked);
+  for (std::size_t k = 0; k < tracked; ++k) {
+    const occmap::track_t& track = t.tracks[k];
+    text += format("%s#%d at (%.2f, %.2f) m moving %.1f m/s", k == 0 ? "" : ", ", track.id,
+                   track.x_m, track.y_m, std::hypot(track.vx_m_s, track.vy_m_s));
+  }
+  const std::size_t found = t.footprints.size();
+  const std::string map =
+      t.seq < 0 ? std::string("a map never sent") : format("map %" PRId64, t.seq);
+  return text + format("; %zu footprint%s on %s\n", found, found == 1 ? "" : "s", map.c_str());
+}
+
 }  // namespace
+
+std::string formatZonesAndTracks(const ZonesAndTracks& heard) {
+  std::string text = heard.zones != nullptr
+                         ? formatZones(*heard.zones)
+                         : format("no zones_t heard in %.1f s (are there zones: in the config?)\n",
+                                  heard.listened_s);
+  text += heard.tracks != nullptr
+              ? formatTracks(*heard.tracks)
+              : format("no tracks_t heard in %.1f s (is footprints: enabled: false?)\n",
+                       heard.listened_s);
+  return text;
+}
 
 std::string terminalText(std::string_view text) {
   std::string out;
@@ -166,7 +227,7 @@ std::string cameraStateName(int state) {
 
 std::string formatStatusTable(const occmap::status_t& s, const occmap::control_status_t* control,
                               const occmap::lighting_status_t* lighting,
-                              const occmap::view_status_t* view) {
+                              const occmap::view_status_t* view, const ZonesAndTracks* heard) {
   std::string text =
       "occmapd on " + (s.hostname.empty() ? std::string("?") : terminalText(s.hostname));
   if (!s.config_file.empty()) text += " (config " + terminalText(s.config_file) + ")";
@@ -206,6 +267,7 @@ std::string formatStatusTable(const occmap::status_t& s, const occmap::control_s
   }
   if (control != nullptr) text += formatControlStatusTable(*control);
   if (lighting != nullptr) text += formatLightingStatusTable(*lighting, view);
+  if (heard != nullptr) text += "\n" + formatZonesAndTracks(*heard);
   return text;
 }
 
@@ -299,7 +361,7 @@ std::string formatControlStatusTable(const occmap::control_status_t& c) {
 
 std::string formatStatusJson(const occmap::status_t& s, const occmap::control_status_t* control,
                              const occmap::lighting_status_t* lighting,
-                             const occmap::view_status_t* view) {
+                             const occmap::view_status_t* view, const ZonesAndTracks* heard) {
   // ordered_json: the keys in the order of status_t's fields, as a reader of the LCM type expects.
   nlohmann::ordered_json j = {
       {"utime", s.utime},
@@ -374,6 +436,49 @@ std::string formatStatusJson(const occmap::status_t& s, const occmap::control_st
     j["view_reposes"] = v.reposes;
     j["view_reposed_turn_deg"] = v.reposed_turn_deg;
     j["view_reposed_utime"] = v.reposed_utime;
+  }
+  if (heard != nullptr) {
+    nlohmann::ordered_json& zones = j["zones"] = nullptr;
+    if (heard->zones != nullptr) {
+      zones = nlohmann::ordered_json::array();
+      for (const occmap::zone_t& zone : heard->zones->zones) {
+        zones.push_back(nlohmann::ordered_json{
+            {"name", zone.name},
+            {"state", std::int64_t{zone.state}},
+            {"state_name", zoneStateText(zone.state)},
+            {"state_s", zone.state_s},
+            {"cells", zone.cells},
+            {"occupied_cells", zone.occupied_cells},
+            {"unseen_cells", zone.unseen_cells},
+            {"corner_x_m", zone.corner_x_m},
+            {"corner_y_m", zone.corner_y_m},
+        });
+      }
+    }
+    nlohmann::ordered_json& tracks = j["tracks"] = nullptr;
+    if (heard->tracks != nullptr) {
+      const occmap::tracks_t& t = *heard->tracks;
+      tracks = {{"utime", t.utime}, {"seq", t.seq}, {"hostname", t.hostname}};
+      nlohmann::ordered_json& found = tracks["footprints"] = nlohmann::ordered_json::array();
+      for (const occmap::footprint_t& f : t.footprints) {
+        found.push_back(nlohmann::ordered_json{
+            {"x_m", f.x_m}, {"y_m", f.y_m}, {"area_m2", f.area_m2}, {"score", f.score},
+             {"height_m", f.height_m}});
+      }
+      nlohmann::ordered_json& followed = tracks["tracks"] = nlohmann::ordered_json::array();
+      for (const occmap::track_t& track : t.tracks) {
+        followed.push_back(nlohmann::ordered_json{
+            {"id", track.id},
+            {"x_m", track.x_m},
+            {"y_m", track.y_m},
+            {"vx_m_s", track.vx_m_s},
+            {"vy_m_s", track.vy_m_s},
+            {"area_m2", track.area_m2},
+            {"age_s", track.age_s},
+            {"unseen_s", track.unseen_s},
+        });
+      }
+    }
   }
   // The texts are anyone's on the network: bytes that are not UTF-8 become U+FFFD (rather than an
   // exception), and ensure_ascii writes every character outside printable ASCII as \uXXXX, so that

@@ -12,19 +12,39 @@
 #include <occmap/control_status_t.hpp>
 #include <occmap/lighting_status_t.hpp>
 #include <occmap/status_t.hpp>
+#include <occmap/tracks_t.hpp>
 #include <occmap/view_status_t.hpp>
+#include <occmap/zones_t.hpp>
 
 namespace occmap {
+
+// What `occmap status` heard on the map's channels while it waited for the daemon's answer
+// (transport/footprints_message.h): the answering daemon's newest zones_t and tracks_t, each
+// nullptr when none came, and for how long it listened.
+struct ZonesAndTracks {
+  const occmap::zones_t* zones = nullptr;
+  const occmap::tracks_t* tracks = nullptr;
+  double listened_s = 0;
+};
 
 // A few lines on the daemon (state, uptime, maps published, publish errors, maps/s, fusion p50 and
 // p99), then a table with one row per camera: name, state, frames in, dropped, fps, and the age of
 // its last capture at the time of the status. With `control` (the control_status_t published with
 // it), then formatControlStatusTable(*control); with `lighting`, formatLightingStatusTable (with
-// `view`, if given). Ends with a newline.
+// `view`, if given); with `heard`, a blank line and formatZonesAndTracks(*heard). Ends with a
+// newline.
 std::string formatStatusTable(const occmap::status_t& status,
                               const occmap::control_status_t* control = nullptr,
                               const occmap::lighting_status_t* lighting = nullptr,
-                              const occmap::view_status_t* view = nullptr);
+                              const occmap::view_status_t* view = nullptr,
+                              const ZonesAndTracks* heard = nullptr);
+
+// The zones and the tracks as lines for the status table: a line per zone, its state and for how
+// long ("zone robot-cell  occupied for 3.2 s (41 of 2500 cells occupied)"), then one for the
+// tracks ("2 people tracked: #4 at (1.20, 0.35) m moving 0.8 m/s, #7 at ...; 3 footprints on map
+// 1205"). For a message that did not come, a line that says so and what may be why ("no tracks_t
+// heard in 0.7 s (is footprints: enabled: false?)"). Ends with a newline.
+std::string formatZonesAndTracks(const ZonesAndTracks& heard);
 
 // Each camera's light (docs/lighting.md), a line per camera: the gain against the background's
 // light and the share of pixels that agreed, or why it is degraded (with `view`, the
@@ -47,11 +67,15 @@ std::string formatControlStatusTable(const occmap::control_status_t& control);
 // `view`, its arrays as "view_camera_name", "view" (the numbers), "view_name" ("as calibrated",
 // "unexplained", "moved"), "view_shift_x_px", "view_shift_y_px", "view_turn_deg",
 // "view_residual_px", "view_checked_utime", "view_reposes", "view_reposed_turn_deg" and
-// "view_reposed_utime".
+// "view_reposed_utime". With `heard`, "zones": an array of zone_t objects (every field by its LCM
+// name but num_corners, the state also by name, "state_name"), and "tracks": the tracks_t as an
+// object ("utime", "seq", "hostname", "footprints" and "tracks" as arrays of footprint_t and
+// track_t objects); each null when none was heard.
 std::string formatStatusJson(const occmap::status_t& status,
                              const occmap::control_status_t* control = nullptr,
                              const occmap::lighting_status_t* lighting = nullptr,
-                             const occmap::view_status_t* view = nullptr);
+                             const occmap::view_status_t* view = nullptr,
+                             const ZonesAndTracks* heard = nullptr);
 
 // "as calibrated", "unexplained", "moved" (view_status_t); "view N" otherwise.
 std::string viewName(int view);

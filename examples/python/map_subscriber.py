@@ -1,9 +1,13 @@
 #!/usr/bin/env python3
-"""Print every occupancy map occmapd broadcasts: seq, size, occupied/free/unseen shares, cameras.
+"""Print every occupancy map occmapd broadcasts: seq, size, occupied/free/unseen shares, cameras;
+and, about once a second, its zones' states and the people it tracks.
 
-A starting point for programs that use occmap's maps. It needs the Python classes that
-`lcm-gen -p` makes from lcmtypes/*.lcm (the build puts them in build/lcmtypes/python): give that
-folder with --types, or put it on PYTHONPATH.
+A starting point for programs that use occmap's maps, zones and tracks. Besides each map
+(map_frame_t, on the map channel), occmapd publishes the zones' states (zones_t, on the map
+channel's name + "_ZONES", right after each map) and the people and objects it finds and follows
+(tracks_t, on its name + "_TRACKS", whenever its detector is done with a map). It needs the Python
+classes that `lcm-gen -p` makes from lcmtypes/*.lcm (the build puts them in
+build/lcmtypes/python): give that folder with --types, or put it on PYTHONPATH.
 
 Where the maps come from:
   * the network (LCM's UDP multicast, the URL occmapd publishes to). With LCM's own Python module
@@ -19,6 +23,7 @@ types not found; 3 no map (none in the log, or none within --timeout).
 """
 
 import argparse
+import math
 import os
 import re
 import select
@@ -30,6 +35,7 @@ import urllib.parse
 from io import BytesIO
 
 DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
+ZONE_STATES = ("free", "occupied", "unseen")  # zone_t.FREE, OCCUPIED, UNSEEN
 MAX_SIDE = 8192  # the largest map side occmap's decoders accept
 FREE, OCCUPIED, UNSEEN = 0, 1, 2
 ENCODING_RAW, ENCODING_ZSTD = 0, 1
@@ -50,21 +56,27 @@ def parse_arguments():
     parser.add_argument("--lcm-url", default=os.environ.get("LCM_DEFAULT_URL") or DEFAULT_URL,
                         help="LCM URL to listen on (default: $LCM_DEFAULT_URL, else %(default)s)")
     parser.add_argument("--channel", default="OCCMAP_MAP",
-                        help="map channel, a regular expression as in LCM (default %(default)s)")
+                        help="map channel, a regular expression as in LCM (default %(default)s); "
+                        "zones are read on its name + _ZONES, tracks on its name + _TRACKS")
     parser.add_argument("--log", metavar="FILE", help="read this lcm-logger log instead")
     parser.add_argument("--count", type=int, default=0, help="stop after this many maps")
     parser.add_argument("--timeout", type=float, default=0,
-                        help="stop after this many seconds without a map (0: wait for ever)")
+                        help="stop after this many seconds without a message (0: wait for ever)")
+    parser.add_argument("--every", type=float, default=1.0, metavar="SECONDS",
+                        help="print the zones and the tracks at most once every SECONDS of their "
+                        "time (and the zones whenever one changes state; default %(default)s, "
+                        "0: every message)")
     parser.add_argument("--receiver", choices=["auto", "lcm", "builtin"], default="auto",
                         help="LCM's Python module, this file's own UDP multicast receiver, or the "
                         "first that works (default)")
     arguments = parser.parse_args()
-    if arguments.count < 0 or arguments.timeout < 0:
-        parser.error("--count and --timeout must not be negative")
+    if arguments.count < 0 or arguments.timeout < 0 or arguments.every < 0:
+        parser.error("--count, --timeout and --every must not be negative")
     return arguments
 
 
-def import_map_type(types_folder):
+def import_types(types_folder):
+    """map_frame_t, zones_t and tracks_t (None for those the types folder does not have)."""
     if types_folder:
         if not os.path.isdir(os.path.join(types_folder, "occmap")):
             print("map_subscriber: --types %s: no occmap/ package there (it is what "
@@ -78,7 +90,18 @@ def import_map_type(types_folder):
         print("map_subscriber: cannot import occmap.map_frame_t (%s): give --types "
               "build/lcmtypes/python or put that folder on PYTHONPATH" % error, file=sys.stderr)
         sys.exit(2)
-    return map_frame_t
+    try:
+        from occmap import tracks_t, zones_t
+    except ImportError:
+        print("map_subscriber: these types have no occmap.zones_t and tracks_t (made before "
+              "them): zones and tracks are not shown", file=sys.stderr)
+        return map_frame_t, None, None
+    return map_frame_t, zones_t, tracks_t
+
+
+def printable(text):
+    """A text from the network as it may go to a terminal: control characters become '?'."""
+    return "".join("?" if ord(c) < 0x20 or 0x7F <= ord(c) < 0xA0 else c for c in text)
 
 
 def zstd_content_size(frame):
@@ -172,6 +195,77 @@ class MapDecoder:
             "used": [camera.name for camera in message.cameras if camera.used],
             "cells": grid,  # row-major, row 0 = smallest y; grid[r * width + c]
         }
+
+
+def decode_whole(message_type, data):
+    """One whole message of `message_type` (zones_t, tracks_t) from `data`, or ValueError.
+
+    Anyone on the network can publish on these channels, so a message is kept only when it is
+    exactly one: every count matches its array, no byte is left over, and encoded again it is the
+    very bytes received (so no string was cut short or lacked its NUL)."""
+    buffer = BytesIO(data)
+    try:
+        message = message_type.decode(buffer)
+    except (ValueError, struct.error) as error:
+        raise ValueError("not a %s, or truncated (%s)" % (message_type.__name__, error))
+    if buffer.tell() != len(data):
+        raise ValueError("its sizes do not add up to the %d bytes received" % len(data))
+    counts = []
+    if hasattr(message, "zones"):
+        counts.append((message.num_zones, message.zones))
+        for zone in message.zones:
+            counts += [(zone.num_corners, zone.corner_x_m), (zone.num_corners, zone.corner_y_m)]
+    else:
+        counts += [(message.num_footprints, message.footprints),
+                   (message.num_tracks, message.tracks)]
+    if any(count < 0 or count != len(array) for count, array in counts):
+        raise ValueError("a count does not match its array")
+    if message.encode() != data:
+        raise ValueError("encoded again it is not the bytes received")
+    return message
+
+
+def zones_line(zones):
+    """zones_t -> 'zones seq S: NAME STATE for T s (...), ...'."""
+    parts = []
+    for zone in zones.zones:
+        state = ZONE_STATES[zone.state] if 0 <= zone.state < 3 else "state %d" % zone.state
+        part = "%s %s for %.1f s" % (printable(zone.name), state, zone.state_s)
+        if zone.occupied_cells:
+            part += " (%d of %d cells occupied)" % (zone.occupied_cells, zone.cells)
+        elif zone.unseen_cells:
+            part += " (%d of %d cells unseen)" % (zone.unseen_cells, zone.cells)
+        parts.append(part)
+    return "zones seq %d: %s" % (zones.seq, ", ".join(parts) or "none")
+
+
+def tracks_line(tracks):
+    """tracks_t -> 'tracks seq S: N tracked: #ID at (X, Y) m moving V m/s, ...; F footprints'."""
+    people = ", ".join("#%d at (%.2f, %.2f) m moving %.2f m/s" %
+                       (track.id, track.x_m, track.y_m, math.hypot(track.vx_m_s, track.vy_m_s))
+                       for track in tracks.tracks)
+    tracked = "%d tracked: %s" % (len(tracks.tracks), people) if people else "none tracked"
+    found = len(tracks.footprints)
+    return "tracks seq %d: %s; %d footprint%s" % (tracks.seq, tracked, found,
+                                                   "" if found == 1 else "s")
+
+
+class Every:
+    """Whether to print a message of time `utime` (us): the first, then once every `seconds` of
+    the messages' own time (a log is shown as it was, whatever the speed it is read at), and
+    whenever `key` changes (a zone's state); all of them when `seconds` is 0."""
+
+    def __init__(self, seconds):
+        self.period = int(seconds * 1e6)
+        self.last_utime = None
+        self.last_key = None
+
+    def due(self, utime, key=None):
+        if (self.last_utime is None or self.period == 0 or key != self.last_key or
+                not self.last_utime <= utime < self.last_utime + self.period):
+            self.last_utime, self.last_key = utime, key
+            return True
+        return False
 
 
 def read_log(path):
@@ -293,9 +387,13 @@ class UdpmReceiver:
         return None
 
 
-def network_messages(url, channel, receiver, timeout):
-    """Yields (channel, data) from the network; None when `timeout` passed without a message."""
-    pattern = re.compile(channel)
+def network_messages(url, channels, receiver, timeout):
+    """Yields (channel, data) from the network on any of `channels` (regular expressions), each
+    message once; None when `timeout` passed without a message."""
+    # One expression for them all (LCM puts ^ and $ around it): a message whose channel matches
+    # two of them (the map channel OCCMAP_.* and OCCMAP_MAP_ZONES) is still received once.
+    either = "(%s)" % "|".join("(%s)" % channel for channel in channels)
+    pattern = re.compile(either)
     if receiver in ("auto", "lcm"):
         try:
             import lcm
@@ -306,7 +404,7 @@ def network_messages(url, channel, receiver, timeout):
                 sys.exit(2)
         else:
             print("receiver: LCM's Python module", flush=True)
-            yield from _lcm_module_messages(lcm, url, channel, timeout)
+            yield from _lcm_module_messages(lcm, url, either, channels[0], timeout)
             return
     print("receiver: built-in LCM UDP multicast receiver", flush=True)
     try:
@@ -317,7 +415,7 @@ def network_messages(url, channel, receiver, timeout):
     except OSError as error:
         print("map_subscriber: cannot listen on %s: %s" % (url, error), file=sys.stderr)
         sys.exit(1)
-    print("listening for maps on %s at %s" % (channel, url), flush=True)
+    print("listening for maps on %s at %s" % (channels[0], url), flush=True)
     last = time.monotonic()
     while True:
         wait = None
@@ -333,11 +431,11 @@ def network_messages(url, channel, receiver, timeout):
             yield message
 
 
-def _lcm_module_messages(lcm, url, channel, timeout):
+def _lcm_module_messages(lcm, url, channels, map_channel, timeout):
     connection = lcm.LCM(url)
     queue = []
-    connection.subscribe(channel, lambda name, data: queue.append((name, data)))
-    print("listening for maps on %s at %s" % (channel, url), flush=True)
+    connection.subscribe(channels, lambda name, data: queue.append((name, data)))
+    print("listening for maps on %s at %s" % (map_channel, url), flush=True)
     while True:
         if not queue and connection.handle_timeout(int(1000 * (timeout or 1))) <= 0:
             if timeout:
@@ -349,9 +447,44 @@ def _lcm_module_messages(lcm, url, channel, timeout):
 
 def main():
     arguments = parse_arguments()
-    decoder = MapDecoder(import_map_type(arguments.types))
-    maps = undecodable = other = lost = 0
+    map_frame_t, zones_t, tracks_t = import_types(arguments.types)
+    decoder = MapDecoder(map_frame_t)
+    maps = undecodable = other = lost = zones_heard = tracks_heard = 0
     last_seq = None
+    # The map channel, and the zones' and tracks' channels named after it (checked first: a map
+    # channel pattern such as OCCMAP_.* matches them too).
+    map_pattern = re.compile(arguments.channel)
+    zones_channel, tracks_channel = ("(%s)_%s" % (arguments.channel, suffix)
+                                     for suffix in ("ZONES", "TRACKS"))
+    zones_pattern, tracks_pattern = re.compile(zones_channel), re.compile(tracks_channel)
+    zones_every, tracks_every = Every(arguments.every), Every(arguments.every)
+
+    def show_other(channel, data):
+        """A zones_t or tracks_t: printed when due; False when `channel` is neither's."""
+        nonlocal undecodable, zones_heard, tracks_heard
+        if zones_t is not None and zones_pattern.fullmatch(channel):
+            message_type = zones_t
+        elif tracks_t is not None and tracks_pattern.fullmatch(channel):
+            message_type = tracks_t
+        else:
+            return False
+        try:
+            message = decode_whole(message_type, data)
+        except ValueError as error:
+            undecodable += 1
+            print("undecodable %s (%d bytes): %s" % (message_type.__name__, len(data), error),
+                  flush=True)
+            return True
+        if message_type is zones_t:
+            zones_heard += 1
+            states = tuple((zone.name, zone.state) for zone in message.zones)
+            if zones_every.due(message.utime, states):
+                print(zones_line(message), flush=True)
+        else:
+            tracks_heard += 1
+            if tracks_every.due(message.utime):
+                print(tracks_line(message), flush=True)
+        return True
 
     def show(data):
         nonlocal maps, undecodable, lost, last_seq
@@ -369,14 +502,16 @@ def main():
               "cameras used %d of %d: %s" %
               (frame["seq"], frame["width"], frame["height"], frame["encoding"], frame["bytes"],
                100 * frame["occupied"], 100 * frame["free"], 100 * frame["unseen"],
-               len(frame["used"]), len(frame["cameras"]), ",".join(frame["used"]) or "-"),
+               len(frame["used"]), len(frame["cameras"]),
+               printable(",".join(frame["used"])) or "-"),
               flush=True)
 
     if arguments.log:
-        pattern = re.compile(arguments.channel)
         try:
             for channel, data, _ in read_log(arguments.log):
-                if not pattern.fullmatch(channel):
+                if show_other(channel, data):
+                    continue
+                if not map_pattern.fullmatch(channel):
                     other += 1
                     continue
                 show(data)
@@ -387,18 +522,21 @@ def main():
             return 1
     else:
         try:
-            for message in network_messages(arguments.lcm_url, arguments.channel,
-                                             arguments.receiver, arguments.timeout):
+            channels = [arguments.channel] + ([zones_channel, tracks_channel] if zones_t else [])
+            for message in network_messages(arguments.lcm_url, channels, arguments.receiver,
+                                             arguments.timeout):
                 if message is None:
-                    print("no map for %g s" % arguments.timeout, file=sys.stderr)
+                    print("nothing for %g s" % arguments.timeout, file=sys.stderr)
                     break
+                if show_other(*message):
+                    continue
                 show(message[1])
                 if arguments.count and maps >= arguments.count:
                     break
         except KeyboardInterrupt:
             pass
-    print("maps %d, lost %d (seq gaps), undecodable %d, other channels %d" %
-          (maps, lost, undecodable, other), flush=True)
+    print("maps %d, lost %d (seq gaps), undecodable %d, other channels %d, zones_t %d, "
+          "tracks_t %d" % (maps, lost, undecodable, other, zones_heard, tracks_heard), flush=True)
     return 0 if maps > 0 else 3
 
 
