@@ -237,7 +237,7 @@ TEST_F(StatusOfTheMap, TheTableAndTheJsonHoldTheAnsweringDaemonsZonesAndTracks) 
                                                           << table;
   }
   const auto& tracks = daemon.tracks().tracks;
-  std::string tracked = printed("%zu people tracked: ", tracks.size());
+  std::string tracked = printed("%zu tracked: ", tracks.size());
   for (std::size_t k = 0; k < tracks.size(); ++k) {
     tracked +=
         printed("%s#%d at (%.2f, %.2f) m moving %.1f m/s", k == 0 ? "" : ", ", tracks[k].id,

@@ -152,9 +152,10 @@ std::string formatZones(const occmap::zones_t& z) {
 
 std::string formatTracks(const occmap::tracks_t& t) {
   const std::size_t tracked = t.tracks.size();
-  std::string text = tracked == 0   ? std::string("no one tracked")
-                     : tracked == 1 ? std::string("1 person tracked: ")
-                                    : format("%zu people tracked: ", tracked);
+  // Tracks are people and objects alike (a chair pushed, a robot): "tracked", not "people".
+  std::string text = tracked == 0   ? std::string("nothing tracked")
+                     : tracked == 1 ? std::string("1 tracked: ")
+                                    : format("%zu tracked: ", tracked);
   for (std::size_t k = 0; k < tracked; ++k) {
     const occmap::track_t& track = t.tracks[k];
     text += format("%s#%d at (%.2f, %.2f) m moving %.1f m/s", k == 0 ? "" : ", ", track.id,
@@ -461,9 +462,11 @@ std::string formatStatusJson(const occmap::status_t& s, const occmap::control_st
       tracks = {{"utime", t.utime}, {"seq", t.seq}, {"hostname", t.hostname}};
       nlohmann::ordered_json& found = tracks["footprints"] = nlohmann::ordered_json::array();
       for (const occmap::footprint_t& f : t.footprints) {
-        found.push_back(nlohmann::ordered_json{
-            {"x_m", f.x_m}, {"y_m", f.y_m}, {"area_m2", f.area_m2}, {"score", f.score},
-             {"height_m", f.height_m}});
+        found.push_back(nlohmann::ordered_json{{"x_m", f.x_m},
+                                               {"y_m", f.y_m},
+                                               {"area_m2", f.area_m2},
+                                               {"score", f.score},
+                                               {"height_m", f.height_m}});
       }
       nlohmann::ordered_json& followed = tracks["tracks"] = nlohmann::ordered_json::array();
       for (const occmap::track_t& track : t.tracks) {

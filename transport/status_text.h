@@ -41,7 +41,7 @@ std::string formatStatusTable(const occmap::status_t& status,
 
 // The zones and the tracks as lines for the status table: a line per zone, its state and for how
 // long ("zone robot-cell  occupied for 3.2 s (41 of 2500 cells occupied)"), then one for the
-// tracks ("2 people tracked: #4 at (1.20, 0.35) m moving 0.8 m/s, #7 at ...; 3 footprints on map
+// tracks ("2 tracked: #4 at (1.20, 0.35) m moving 0.8 m/s, #7 at ...; 3 footprints on map
 // 1205"). For a message that did not come, a line that says so and what may be why ("no tracks_t
 // heard in 0.7 s (is footprints: enabled: false?)"). Ends with a newline.
 std::string formatZonesAndTracks(const ZonesAndTracks& heard);
