@@ -11,6 +11,7 @@
 #include <occmap/zones_t.hpp>
 
 #include "fuzz/fuzz_target.h"
+#include "fuzz/zones_and_tracks_printed.h"
 #include "transport/footprints_message.h"
 #include "transport/status_text.h"
 
@@ -40,32 +41,10 @@ bool fuzzZones(Input input) {
               std::equal(again.begin(), again.end(), input.begin(), input.end()),
           "an accepted zones_t encodes back to the bytes received");
 
-  // Printed after a status (here an empty one), with no tracks_t heard. The table goes to the
-  // user's terminal: no escape sequences, no carriage returns; a line per zone (one saying there
-  // are none when there are none) and one for the missing tracks, at the table's end.
+  // Printed after a status, with no tracks_t heard (fuzz/zones_and_tracks_printed.h).
   const ZonesAndTracks heard{&zones, nullptr, 0.5};
-  const std::string section = formatZonesAndTracks(heard);
-  for (const char c : section) {
-    const auto byte = static_cast<unsigned char>(c);
-    require(c == '\n' || (byte >= 0x20 && byte != 0x7f),
-            "the zones' and tracks' lines hold no control characters but line ends");
-  }
-  require(static_cast<std::size_t>(std::count(section.begin(), section.end(), '\n')) ==
-                  std::max<std::size_t>(zones.zones.size(), 1) + 1 &&
-              section.back() == '\n',
-          "a line for each zone and one for the tracks not heard");
-  const occmap::status_t status{};
-  const std::string table = formatStatusTable(status, nullptr, nullptr, nullptr, &heard);
-  require(table.size() >= section.size() &&
-              table.compare(table.size() - section.size(), section.size(), section) == 0,
-          "the status table ends with the zones' and tracks' lines");
-  // What --json prints is read by programs and may be printed on a terminal: valid JSON,
-  // printable ASCII only (numbers that are not finite come out as null).
-  const std::string json = formatStatusJson(status, nullptr, nullptr, nullptr, &heard);
-  require(nlohmann::json::accept(json), "occmap status --json prints valid JSON with a zones_t");
-  require(std::all_of(json.begin(), json.end(), [](char c) { return c >= 0x20 && c < 0x7f; }),
-          "occmap status --json prints printable ASCII only");
-  const nlohmann::json parsed = nlohmann::json::parse(json);
+  const nlohmann::json parsed =
+      checkZonesAndTracksPrinted(heard, std::max<std::size_t>(zones.zones.size(), 1) + 1);
   require(parsed.at("zones").size() == zones.zones.size() && parsed.at("tracks").is_null(),
           "the JSON's \"zones\" holds every zone, \"tracks\" is null");
   return true;
