@@ -15,6 +15,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <occmap/status_t.hpp>
 
+#include "base/format_text.h"
 #include "footprint_scenes.h"
 #include "map_scenes.h"
 #include "transport/footprints_message.h"
@@ -190,28 +191,19 @@ TEST_F(PythonExampleLive, ReceivesMapsInDatagramsAndFragments) {
   }
 }
 
-__attribute__((format(printf, 1, 2))) std::string printed(const char* pattern, ...) {
-  char text[512];
-  va_list values;
-  va_start(values, pattern);
-  std::vsnprintf(text, sizeof text, pattern, values);
-  va_end(values);
-  return text;
-}
-
 // The line the script prints for a zones_t, from its fields: "zones seq S: " and, per zone, its
 // name, state and for how long, with its occupied or unseen cells.
 std::string zonesLine(const occmap::zones_t& zones) {
   const char* states[] = {"free", "occupied", "unseen"};
-  std::string line = printed("zones seq %lld: ", static_cast<long long>(zones.seq));
+  std::string line = formatText("zones seq %lld: ", static_cast<long long>(zones.seq));
   for (std::size_t k = 0; k < zones.zones.size(); ++k) {
     const occmap::zone_t& zone = zones.zones[k];
-    line += printed("%s%s %s for %.1f s", k == 0 ? "" : ", ", zone.name.c_str(), states[zone.state],
-                    zone.state_s);
+    line += formatText("%s%s %s for %.1f s", k == 0 ? "" : ", ", zone.name.c_str(),
+                       states[zone.state], zone.state_s);
     if (zone.occupied_cells != 0) {
-      line += printed(" (%d of %d cells occupied)", zone.occupied_cells, zone.cells);
+      line += formatText(" (%d of %d cells occupied)", zone.occupied_cells, zone.cells);
     } else if (zone.unseen_cells != 0) {
-      line += printed(" (%d of %d cells unseen)", zone.unseen_cells, zone.cells);
+      line += formatText(" (%d of %d cells unseen)", zone.unseen_cells, zone.cells);
     }
   }
   return line + "\n";
@@ -220,16 +212,16 @@ std::string zonesLine(const occmap::zones_t& zones) {
 // The line for a tracks_t: "tracks seq S: N tracked: #ID at (X, Y) m moving V m/s, ...; F
 // footprints".
 std::string tracksLine(const occmap::tracks_t& tracks) {
-  std::string line = printed("tracks seq %lld: ", static_cast<long long>(tracks.seq));
+  std::string line = formatText("tracks seq %lld: ", static_cast<long long>(tracks.seq));
   if (tracks.tracks.empty()) line += "none tracked";
   for (std::size_t k = 0; k < tracks.tracks.size(); ++k) {
     const occmap::track_t& t = tracks.tracks[k];
-    if (k == 0) line += printed("%zu tracked: ", tracks.tracks.size());
-    line += printed("%s#%d at (%.2f, %.2f) m moving %.2f m/s", k == 0 ? "" : ", ", t.id, t.x_m,
-                    t.y_m, std::hypot(t.vx_m_s, t.vy_m_s));
+    if (k == 0) line += formatText("%zu tracked: ", tracks.tracks.size());
+    line += formatText("%s#%d at (%.2f, %.2f) m moving %.2f m/s", k == 0 ? "" : ", ", t.id, t.x_m,
+                       t.y_m, std::hypot(t.vx_m_s, t.vy_m_s));
   }
   const std::size_t found = tracks.footprints.size();
-  return line + printed("; %zu footprint%s\n", found, found == 1 ? "" : "s");
+  return line + formatText("; %zu footprint%s\n", found, found == 1 ? "" : "s");
 }
 
 std::size_t countLines(const std::string& out, const std::string& start) {

@@ -21,6 +21,7 @@
 #include <occmap/view_status_t.hpp>
 #include <occmap/zones_t.hpp>
 
+#include "base/format_text.h"
 #include "command_runner.h"
 #include "network_namespace.h"
 #include "timing.h"
@@ -90,7 +91,8 @@ class DaemonStandIn {
                     zone("desk", occmap::zone_t::UNSEEN, 0.5, 400, 0, 120)};
     zones_.num_zones = static_cast<std::int16_t>(zones_.zones.size());
     tracks_.hostname = kHostname;
-    tracks_.footprints = {{1.2, 0.35, 0.19, 0.6, 1.75}, {-0.4, 2.1, 0.2, 0.4, 1.75}, {3.0, 0.2, 0.05, 0.61, 0.5}};
+    tracks_.footprints = {
+        {1.2, 0.35, 0.19, 0.6, 1.75}, {-0.4, 2.1, 0.2, 0.4, 1.75}, {3.0, 0.2, 0.05, 0.61, 0.5}};
     tracks_.num_footprints = static_cast<std::int16_t>(tracks_.footprints.size());
     tracks_.tracks = {track(4, 1.204, 0.347, 0.62, -0.5, 12.5), track(7, -0.4, 2.1, 0, 0.02, 3.0)};
     tracks_.num_tracks = static_cast<std::int16_t>(tracks_.tracks.size());
@@ -195,15 +197,6 @@ class StatusOfTheMap : public ::testing::Test {
   }
 };
 
-__attribute__((format(printf, 1, 2))) std::string printed(const char* pattern, ...) {
-  char text[512];
-  va_list values;
-  va_start(values, pattern);
-  std::vsnprintf(text, sizeof text, pattern, values);
-  va_end(values);
-  return text;
-}
-
 // The line the table should hold for zone `z` of `zones`, from its fields: the name (as wide as
 // the longest), the state, for how long (as an uptime from a minute on), its cells.
 std::string zoneLine(const occmap::zones_t& zones, std::size_t z) {
@@ -214,13 +207,13 @@ std::string zoneLine(const occmap::zones_t& zones, std::size_t z) {
   const occmap::zone_t& zone = zones.zones.at(z);
   const char* states[] = {"free", "occupied", "unseen"};
   const auto seconds = static_cast<int>(zone.state_s);
-  const std::string how_long = zone.state_s < 59.95 ? printed("%.1f s", zone.state_s)
-                                                    : printed("%d:%02d:%02d", seconds / 3600,
-                                                              seconds / 60 % 60, seconds % 60);
+  const std::string how_long = zone.state_s < 59.95 ? formatText("%.1f s", zone.state_s)
+                                                    : formatText("%d:%02d:%02d", seconds / 3600,
+                                                                 seconds / 60 % 60, seconds % 60);
   std::string line =
-      printed("zone %-*s  %s for %s (%d of %d cells occupied", width, zone.name.c_str(),
-              states[zone.state], how_long.c_str(), zone.occupied_cells, zone.cells);
-  if (zone.unseen_cells != 0) line += printed(", %d unseen", zone.unseen_cells);
+      formatText("zone %-*s  %s for %s (%d of %d cells occupied", width, zone.name.c_str(),
+                 states[zone.state], how_long.c_str(), zone.occupied_cells, zone.cells);
+  if (zone.unseen_cells != 0) line += formatText(", %d unseen", zone.unseen_cells);
   return line + ")\n";
 }
 
@@ -237,13 +230,13 @@ TEST_F(StatusOfTheMap, TheTableAndTheJsonHoldTheAnsweringDaemonsZonesAndTracks) 
                                                           << table;
   }
   const auto& tracks = daemon.tracks().tracks;
-  std::string tracked = printed("%zu tracked: ", tracks.size());
+  std::string tracked = formatText("%zu tracked: ", tracks.size());
   for (std::size_t k = 0; k < tracks.size(); ++k) {
     tracked +=
-        printed("%s#%d at (%.2f, %.2f) m moving %.1f m/s", k == 0 ? "" : ", ", tracks[k].id,
-                tracks[k].x_m, tracks[k].y_m, std::hypot(tracks[k].vx_m_s, tracks[k].vy_m_s));
+        formatText("%s#%d at (%.2f, %.2f) m moving %.1f m/s", k == 0 ? "" : ", ", tracks[k].id,
+                   tracks[k].x_m, tracks[k].y_m, std::hypot(tracks[k].vx_m_s, tracks[k].vy_m_s));
   }
-  tracked += printed("; %zu footprints on map ", daemon.tracks().footprints.size());
+  tracked += formatText("; %zu footprints on map ", daemon.tracks().footprints.size());
   const std::size_t at = table.find(tracked);
   ASSERT_NE(at, std::string::npos) << "no '" << tracked << "' in\n" << table;
   const std::int64_t seq = std::stoll(table.substr(at + tracked.size()));

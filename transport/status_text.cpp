@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "base/format_text.h"
 #include "core/zones.h"
 
 namespace occmap {
@@ -29,28 +30,6 @@ std::size_t viewIndex(const occmap::view_status_t* view, const std::string& name
     if (view->camera_name[v] == name) return v;
   }
   return kNoView;
-}
-
-// printf into a string of whatever length the result has: a row with a long camera name must not
-// be cut short (losing its newline, running into the next row).
-__attribute__((format(printf, 1, 2))) std::string format(const char* pattern, ...) {
-  char text[512];
-  va_list arguments;
-  va_start(arguments, pattern);
-  va_list again;
-  va_copy(again, arguments);
-  const int length = std::vsnprintf(text, sizeof text, pattern, arguments);
-  va_end(arguments);
-  std::string result;
-  if (length >= static_cast<int>(sizeof text)) {
-    result.resize(static_cast<std::size_t>(length) + 1);
-    std::vsnprintf(result.data(), result.size(), pattern, again);
-    result.resize(static_cast<std::size_t>(length));
-  } else if (length > 0) {
-    result.assign(text, static_cast<std::size_t>(length));
-  }
-  va_end(again);
-  return result;
 }
 
 // The length of the UTF-8 sequence of one code point at text[at], and the code point; 0 when the
@@ -103,9 +82,9 @@ std::string uptime(double seconds) {
   if (!std::isfinite(seconds) || seconds < 0 || seconds >= 1e12) return "?";
   const auto total = static_cast<std::int64_t>(seconds);
   const std::int64_t days = total / 86400;
-  const std::string clock = format("%" PRId64 ":%02" PRId64 ":%02" PRId64, total % 86400 / 3600,
-                                   total % 3600 / 60, total % 60);
-  return days > 0 ? format("%" PRId64 " d ", days) + clock : clock;
+  const std::string clock = formatText("%" PRId64 ":%02" PRId64 ":%02" PRId64, total % 86400 / 3600,
+                                       total % 3600 / 60, total % 60);
+  return days > 0 ? formatText("%" PRId64 " d ", days) + clock : clock;
 }
 
 // How long before the status its camera's newest frame was captured (both times are the daemon's
@@ -115,19 +94,20 @@ std::string age(std::int64_t status_utime, std::int64_t capture_utime) {
   // In double: the difference of two int64 values from the network may not fit an int64.
   const double ms =
       (static_cast<double>(status_utime) - static_cast<double>(capture_utime)) / 1000.0;
-  if (std::fabs(ms) < 1000.0) return format("%.0f ms ago", ms);
-  return format("%.1f s ago", ms / 1000.0);
+  if (std::fabs(ms) < 1000.0) return formatText("%.0f ms ago", ms);
+  return formatText("%.1f s ago", ms / 1000.0);
 }
 
 // How long something has lasted: "3.2 s" under a minute, else as an uptime.
 std::string duration(double seconds) {
-  if (std::isfinite(seconds) && seconds >= 0 && seconds < 59.95) return format("%.1f s", seconds);
+  if (std::isfinite(seconds) && seconds >= 0 && seconds < 59.95)
+    return formatText("%.1f s", seconds);
   return uptime(seconds);
 }
 
 // A zone_t's state: "free", "occupied", "unseen" (core/zones.h); "state N" otherwise.
 std::string zoneStateText(int state) {
-  if (state < 0 || state > 2) return format("state %d", state);
+  if (state < 0 || state > 2) return formatText("state %d", state);
   return std::string(zoneStateName(static_cast<ZoneState>(state)));
 }
 
@@ -141,10 +121,10 @@ std::string formatZones(const occmap::zones_t& z) {
   std::string text;
   for (std::size_t k = 0; k < z.zones.size(); ++k) {
     const occmap::zone_t& zone = z.zones[k];
-    text += format("zone %-*s  %s for %s (%d of %d cells occupied", w, names[k].c_str(),
-                   zoneStateText(zone.state).c_str(), duration(zone.state_s).c_str(),
-                   zone.occupied_cells, zone.cells);
-    if (zone.unseen_cells != 0) text += format(", %d unseen", zone.unseen_cells);
+    text += formatText("zone %-*s  %s for %s (%d of %d cells occupied", w, names[k].c_str(),
+                       zoneStateText(zone.state).c_str(), duration(zone.state_s).c_str(),
+                       zone.occupied_cells, zone.cells);
+    if (zone.unseen_cells != 0) text += formatText(", %d unseen", zone.unseen_cells);
     text += ")\n";
   }
   return text;
@@ -155,29 +135,30 @@ std::string formatTracks(const occmap::tracks_t& t) {
   // Tracks are people and objects alike (a chair pushed, a robot): "tracked", not "people".
   std::string text = tracked == 0   ? std::string("nothing tracked")
                      : tracked == 1 ? std::string("1 tracked: ")
-                                    : format("%zu tracked: ", tracked);
+                                    : formatText("%zu tracked: ", tracked);
   for (std::size_t k = 0; k < tracked; ++k) {
     const occmap::track_t& track = t.tracks[k];
-    text += format("%s#%d at (%.2f, %.2f) m moving %.1f m/s", k == 0 ? "" : ", ", track.id,
-                   track.x_m, track.y_m, std::hypot(track.vx_m_s, track.vy_m_s));
+    text += formatText("%s#%d at (%.2f, %.2f) m moving %.1f m/s", k == 0 ? "" : ", ", track.id,
+                       track.x_m, track.y_m, std::hypot(track.vx_m_s, track.vy_m_s));
   }
   const std::size_t found = t.footprints.size();
   const std::string map =
-      t.seq < 0 ? std::string("a map never sent") : format("map %" PRId64, t.seq);
-  return text + format("; %zu footprint%s on %s\n", found, found == 1 ? "" : "s", map.c_str());
+      t.seq < 0 ? std::string("a map never sent") : formatText("map %" PRId64, t.seq);
+  return text + formatText("; %zu footprint%s on %s\n", found, found == 1 ? "" : "s", map.c_str());
 }
 
 }  // namespace
 
 std::string formatZonesAndTracks(const ZonesAndTracks& heard) {
-  std::string text = heard.zones != nullptr
-                         ? formatZones(*heard.zones)
-                         : format("no zones_t heard in %.1f s (are there zones: in the config?)\n",
-                                  heard.listened_s);
+  std::string text =
+      heard.zones != nullptr
+          ? formatZones(*heard.zones)
+          : formatText("no zones_t heard in %.1f s (are there zones: in the config?)\n",
+                       heard.listened_s);
   text += heard.tracks != nullptr
               ? formatTracks(*heard.tracks)
-              : format("no tracks_t heard in %.1f s (is footprints: enabled: false?)\n",
-                       heard.listened_s);
+              : formatText("no tracks_t heard in %.1f s (is footprints: enabled: false?)\n",
+                           heard.listened_s);
   return text;
 }
 
@@ -209,7 +190,7 @@ std::string daemonStateName(int state) {
     case occmap::status_t::STATE_STOPPING:
       return "stopping";
     default:
-      return format("state %d", state);
+      return formatText("state %d", state);
   }
 }
 
@@ -222,7 +203,7 @@ std::string cameraStateName(int state) {
     case 2:
       return "down";
     default:
-      return format("state %d", state);
+      return formatText("state %d", state);
   }
 }
 
@@ -233,35 +214,35 @@ std::string formatStatusTable(const occmap::status_t& s, const occmap::control_s
       "occmapd on " + (s.hostname.empty() ? std::string("?") : terminalText(s.hostname));
   if (!s.config_file.empty()) text += " (config " + terminalText(s.config_file) + ")";
   text += "\n";
-  text +=
-      format("  state %s, up %s\n", daemonStateName(s.state).c_str(), uptime(s.uptime_s).c_str());
-  text += format("  maps published %" PRId64 " (%.1f maps/s), publish errors %" PRId64 "\n",
-                 s.maps_published, s.maps_per_s, s.publish_errors);
-  text += format("  fusion per frame set: p50 %.2f ms, p99 %.2f ms\n", s.fusion_p50_ms,
-                 s.fusion_p99_ms);
+  text += formatText("  state %s, up %s\n", daemonStateName(s.state).c_str(),
+                     uptime(s.uptime_s).c_str());
+  text += formatText("  maps published %" PRId64 " (%.1f maps/s), publish errors %" PRId64 "\n",
+                     s.maps_published, s.maps_per_s, s.publish_errors);
+  text += formatText("  fusion per frame set: p50 %.2f ms, p99 %.2f ms\n", s.fusion_p50_ms,
+                     s.fusion_p99_ms);
   std::vector<std::string> names;
   for (const auto& camera : s.cameras) names.push_back(terminalText(camera.name));
   // Camera names are at most 64 characters (config.h); a longer one runs past its column.
   std::size_t name_width = 6;
   for (const std::string& name : names) name_width = std::max(name_width, name.size());
   const int w = static_cast<int>(std::min<std::size_t>(name_width, 64));
-  text += format("\n%-*s  %-9s  %10s  %8s  %6s  %s\n", w, "camera", "state", "frames in", "dropped",
-                 "fps", "last capture");
+  text += formatText("\n%-*s  %-9s  %10s  %8s  %6s  %s\n", w, "camera", "state", "frames in",
+                     "dropped", "fps", "last capture");
   for (std::size_t k = 0; k < s.cameras.size(); ++k) {
     const auto& c = s.cameras[k];
-    text += format("%-*s  %-9s  %10" PRId64 "  %8" PRId64 "  %6.1f  %s\n", w, names[k].c_str(),
-                   cameraStateName(c.state).c_str(), c.frames_in, c.frames_dropped, c.fps,
-                   age(s.utime, c.last_capture_utime).c_str());
+    text += formatText("%-*s  %-9s  %10" PRId64 "  %8" PRId64 "  %6.1f  %s\n", w, names[k].c_str(),
+                       cameraStateName(c.state).c_str(), c.frames_in, c.frames_dropped, c.fps,
+                       age(s.utime, c.last_capture_utime).c_str());
   }
   if (s.cameras.empty()) text += "(no cameras)\n";
   for (std::size_t k = 0; k < s.cameras.size(); ++k) {
     const auto& c = s.cameras[k];
     if (c.frames_incomplete || c.missing_packets || c.resent_packets || c.underruns ||
         c.reconnects) {
-      text += format("%s: %" PRId64 " incomplete frames, %" PRId64 " packets missing, %" PRId64
-                     " resent, %" PRId64 " underruns, %d reconnects\n",
-                     names[k].c_str(), c.frames_incomplete, c.missing_packets, c.resent_packets,
-                     c.underruns, c.reconnects);
+      text += formatText("%s: %" PRId64 " incomplete frames, %" PRId64 " packets missing, %" PRId64
+                         " resent, %" PRId64 " underruns, %d reconnects\n",
+                         names[k].c_str(), c.frames_incomplete, c.missing_packets, c.resent_packets,
+                         c.underruns, c.reconnects);
     }
     if (!c.last_error.empty())
       text += names[k] + ": last error: " + terminalText(c.last_error) + "\n";
@@ -273,8 +254,8 @@ std::string formatStatusTable(const occmap::status_t& s, const occmap::control_s
 }
 
 std::string imageShiftText(double x_px, double y_px) {
-  return format("%.1f px %s and %.1f px %s", std::abs(x_px), x_px < 0 ? "left" : "right",
-                std::abs(y_px), y_px < 0 ? "up" : "down");
+  return formatText("%.1f px %s and %.1f px %s", std::abs(x_px), x_px < 0 ? "left" : "right",
+                    std::abs(y_px), y_px < 0 ? "up" : "down");
 }
 
 std::string viewName(int view) {
@@ -286,7 +267,7 @@ std::string viewName(int view) {
     case occmap::view_status_t::MOVED:
       return "moved";
     default:
-      return format("view %d", view);
+      return formatText("view %d", view);
   }
 }
 
@@ -301,11 +282,11 @@ std::string formatLightingStatusTable(const occmap::lighting_status_t& l,
     if (l.adapt[k] == 0) continue;
     const std::string name = terminalText(l.camera_name[k]);
     if (l.explained[k] != 0) {
-      text += format("%s: light %.2f x the background's (%.0f %% of pixels agree)", name.c_str(),
-                     l.gain[k], 100 * l.agreement[k]);
+      text += formatText("%s: light %.2f x the background's (%.0f %% of pixels agree)",
+                         name.c_str(), l.gain[k], 100 * l.agreement[k]);
     } else if (const std::size_t v = viewIndex(view, l.camera_name[k]);
                v != kNoView && view->view[v] == occmap::view_status_t::MOVED) {
-      text += format(
+      text += formatText(
           "%s: DEGRADED, MOVED: it turned %.2f degrees on its mount (the image shifted %s, "
           "%.2f px off a turn alone); its calibration no longer holds and its cells are unseen "
           "until occmapd re-poses it, once its view is still (if it was turned, not moved "
@@ -313,23 +294,23 @@ std::string formatLightingStatusTable(const occmap::lighting_status_t& l,
           name.c_str(), view->turn_deg[v],
           imageShiftText(view->shift_x_px[v], view->shift_y_px[v]).c_str(), view->residual_px[v]);
     } else if (v != kNoView && view->view[v] == occmap::view_status_t::UNEXPLAINED) {
-      text += format(
+      text += formatText(
           "%s: DEGRADED, no change of light explains its view (%.0f %% of pixels agree) and it "
           "is not its background moved: covered, lights out, crowded, or changed beyond "
           "recognition; its cells are unseen",
           name.c_str(), 100 * l.agreement[k]);
     } else {
-      text += format(
+      text += formatText(
           "%s: DEGRADED, no change of light explains its view (%.0f %% of pixels "
           "agree): bumped, covered, lights out or crowded; its cells are unseen",
           name.c_str(), 100 * l.agreement[k]);
     }
     if (l.unexplained_frames[k] > 0) {
-      text += format("; %" PRId64 " frames left out so far", l.unexplained_frames[k]);
+      text += formatText("; %" PRId64 " frames left out so far", l.unexplained_frames[k]);
     }
     if (const std::size_t v = viewIndex(view, l.camera_name[k]);
         v != kNoView && view->reposes[v] > 0) {
-      text += format(
+      text += formatText(
           "; re-posed %d time%s after a knock (last turned %.2f degrees): its "
           "calibration file still has the old pose",
           view->reposes[v], view->reposes[v] == 1 ? "" : "s", view->reposed_turn_deg[v]);
@@ -340,11 +321,11 @@ std::string formatLightingStatusTable(const occmap::lighting_status_t& l,
 }
 
 std::string formatControlStatusTable(const occmap::control_status_t& c) {
-  std::string text = format("control requests %s: accepted %" PRId64 ", refused %" PRId64
-                            "; ignored: %" PRId64 " while off, %" PRId64 " malformed, %" PRId64
-                            " bad mac, %" PRId64 " stale or replayed\n",
-                            c.control_enabled ? "on" : "off", c.accepted, c.refused, c.disabled,
-                            c.malformed, c.bad_mac, c.stale);
+  std::string text = formatText("control requests %s: accepted %" PRId64 ", refused %" PRId64
+                                "; ignored: %" PRId64 " while off, %" PRId64 " malformed, %" PRId64
+                                " bad mac, %" PRId64 " stale or replayed\n",
+                                c.control_enabled ? "on" : "off", c.accepted, c.refused, c.disabled,
+                                c.malformed, c.bad_mac, c.stale);
   if (!c.control_enabled) return text;
   // What a control request changed, per camera (the arrays are as long as num_cameras in any
   // message that decodes; a hand-made one may not be).
@@ -354,8 +335,8 @@ std::string formatControlStatusTable(const occmap::control_status_t& c) {
     const std::int64_t made = c.camera_background_utime[k];
     const std::string background =
         made == 0 ? std::string("from the config") : "recaptured " + age(c.utime, made);
-    text += format("%s: threshold %d, background %s\n", terminalText(c.camera_name[k]).c_str(),
-                   c.camera_threshold[k], background.c_str());
+    text += formatText("%s: threshold %d, background %s\n", terminalText(c.camera_name[k]).c_str(),
+                       c.camera_threshold[k], background.c_str());
   }
   return text;
 }
