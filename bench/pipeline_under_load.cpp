@@ -70,6 +70,7 @@ PipelineUnderLoad::PipelineUnderLoad(const LoadOptions& o, bool multicast, const
   daemon_config.map = config_.map;
   daemon_config.fusion.threshold = kThreshold;
   daemon_config.fusion.column_height_m = o.column_height_m;
+  daemon_config.footprints.enabled = o.footprints;
   const std::string url = multicast ? kUrl : "memq://";
   daemon_config.transport.lcm_url = url;
   std::vector<RigCamera> cameras;
@@ -155,6 +156,9 @@ void addLoadOptions(CLI::App& app, LoadOptions& options) {
   app.add_option("--column-height", options.column_height_m, "column_height_m (0: floor mode)")
       ->capture_default_str();
   app.add_option("--cameras", options.cameras, "Use only the first K cameras of the rig");
+  app.add_flag("!--no-footprints", options.footprints,
+               "Without the footprints thread (people found and followed beside the maps), to "
+               "see what it costs");
 }
 
 double cpuSeconds() {

@@ -26,6 +26,7 @@ struct LoadOptions {
   int frames = 30;  // rendered per camera, shown in a loop
   double column_height_m = 0.3;
   int cameras = 0;  // 0: the rig's own count
+  bool footprints = true;  // the daemon's footprints thread (people found and followed)
 };
 
 // What the subscriber said when it was stopped; -1 where it said nothing readable.
