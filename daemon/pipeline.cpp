@@ -104,6 +104,7 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
   states_.assign(cameras, CameraState::kStarting);
   logged_states_.assign(cameras, CameraState::kStarting);
   changed_.assign(cameras, nullptr);
+  footprint_masks_.assign(cameras, nullptr);
   generations_.assign(cameras, 0);
   if (!config.zones.empty()) zones_.emplace(config.map, config.zones);
   if (config.footprints.enabled) {
@@ -578,7 +579,15 @@ void Pipeline::fuse(std::int64_t now) {
     const std::vector<ZoneStatus>& zones = zones_->update(out.map.cells, out.time_s);
     std::copy(zones.begin(), zones.end(), out.zones.begin());
   }
-  if (footprints_) footprints_->offer(out.fused, out.utime, out.time_s, changed_, out.map.cells);
+  if (footprints_) {
+    // The detector's boxes are the config's poses: a camera re-posed after a knock (generation
+    // above 0) says nothing to it until a reload gives it the new pose (docs/detection.md).
+    for (std::size_t k = 0; k < cameras_.size(); ++k) {
+      const bool counted = ((fused >> k) & 1u) != 0 && generations_[k] == 0;
+      footprint_masks_[k] = counted ? changed_[k] : nullptr;
+    }
+    footprints_->offer(out.fused, out.utime, out.time_s, footprint_masks_, out.map.cells);
+  }
   if (maps_.publish()) maps_skipped_.fetch_add(1, std::memory_order_relaxed);
   publish_wakeup_.signal();
   frame_set_.fused(now);

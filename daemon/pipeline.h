@@ -211,6 +211,7 @@ class Pipeline {
   std::vector<CameraState> states_;         // each camera's state at the last round
   std::vector<CameraState> logged_states_;  // what the log last said of it
   std::vector<const std::uint8_t*> changed_;
+  std::vector<const std::uint8_t*> footprint_masks_;  // what the detector is offered
   std::vector<std::uint32_t> generations_;
   TripleBuffer<MapFrame> maps_;
   TimeHistogram fusion_times_;
