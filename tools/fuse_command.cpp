@@ -517,7 +517,10 @@ Command addDetectCommand(CLI::App& app) {
       "frame,x_m,y_m,area_m2,score: frame is the frame set's index from 0, (x_m, y_m) the "
       "footprint's centre on the floor, area_m2 the occupied floor under a person-sized box "
       "there, score the least share of changed pixels any camera that sees it finds in its box "
-      "(0 to 1). The config's footprints section sets the box and the rules.\n\n"
+      "(0 to 1). People are looked for with a person's box (0.5 x 1.75 m), then, where no one was "
+      "found, what stands lower with a 0.5 m box (a cart, a small robot). The config's footprints "
+      "section sets the boxes and the rules. With simulated cameras it also scores the detections "
+      "against the scene's objects, and says how many of each kind were found.\n\n"
       "Example (EPFL Terrace; then occmap score, docs/detection.md):\n"
       "  occmap detect --config examples/epfl-terrace.yaml --out detections.csv");
   command->add_option("--config", options->config, "Config file (YAML; see README)")->required();
