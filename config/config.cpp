@@ -44,9 +44,10 @@ using Keys = std::span<const std::string_view>;
 constexpr std::string_view kTopKeys[] = {"map",     "cameras",    "fusion", "transport",
                                          "control", "footprints", "zones"};
 constexpr std::string_view kZoneKeys[] = {"name", "polygon_m"};
-constexpr std::string_view kFootprintKeys[] = {"box_width_m", "box_height_m", "step_m",
-                                               "min_support", "min_fresh",    "min_separation_m",
-                                               "min_cameras", "enabled",      "object_height_m"};
+constexpr std::string_view kFootprintKeys[] = {
+    "box_width_m",     "box_height_m",       "step_m",          "min_support",
+    "min_fresh",       "min_separation_m",   "min_cameras",     "enabled",
+    "object_height_m", "object_min_support", "object_min_fresh"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};

@@ -247,11 +247,18 @@ TEST(Config, FootprintsAreReadAndChecked) {
   const Config defaults = parseConfig(kMinimal, "/etc/occmap/occmap.yaml");
   EXPECT_EQ(defaults.footprints.min_cameras, 2);
   EXPECT_DOUBLE_EQ(defaults.footprints.box_height_m, 1.75);
+  EXPECT_TRUE(defaults.footprints.enabled) << "occmapd finds people unless told not to";
+  EXPECT_DOUBLE_EQ(defaults.footprints.object_height_m, 0.5);
   const Config config = parseConfig(
       kMinimal +
           "footprints: {box_width_m: 0.6, box_height_m: 1.2, step_m: 0.05, min_support: "
-          "0.3, min_fresh: 0.15, min_cameras: 3, min_separation_m: 0.4}\n",
+          "0.3, min_fresh: 0.15, min_cameras: 3, min_separation_m: 0.4, enabled: false, "
+          "object_height_m: 0, object_min_support: 0.5, object_min_fresh: 0.25}\n",
       "/etc/occmap/occmap.yaml");
+  EXPECT_FALSE(config.footprints.enabled);
+  EXPECT_DOUBLE_EQ(config.footprints.object_height_m, 0.0);
+  EXPECT_DOUBLE_EQ(config.footprints.object_min_support, 0.5);
+  EXPECT_DOUBLE_EQ(config.footprints.object_min_fresh, 0.25);
   EXPECT_DOUBLE_EQ(config.footprints.box_width_m, 0.6);
   EXPECT_DOUBLE_EQ(config.footprints.box_height_m, 1.2);
   EXPECT_DOUBLE_EQ(config.footprints.step_m, 0.05);
@@ -262,6 +269,9 @@ TEST(Config, FootprintsAreReadAndChecked) {
   expectError(kMinimal + "footprints: {min_support: 1.5}\n", 5, "footprints.min_support",
               "must be <= 1");
   expectError(kMinimal + "footprints: {min_cameras: 0}\n", 5, "footprints.min_cameras", "");
+  expectError(kMinimal + "footprints: {object_height_m: -1}\n", 5, "footprints.object_height_m",
+              "");
+  expectError(kMinimal + "footprints: {enabled: maybe}\n", 5, "footprints.enabled", "");
   expectError(kMinimal + "footprints: {box_heigth_m: 2}\n", 5, "footprints.box_heigth_m",
               "did you mean box_height_m?");
 }
