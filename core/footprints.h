@@ -143,6 +143,18 @@ class FootprintDetector {
   std::vector<const std::uint8_t*> changed_;
   std::vector<std::uint32_t> occupied_;  // integral image of the map's occupied cells
   std::vector<std::size_t> alive_;
+  // explainGreedily's candidates by what they would add, as of the people found by `round`.
+  struct Ranked {
+    double fresh;
+    double support;
+    std::size_t candidate;
+    std::uint32_t round;
+    // The heap's top is the most fresh evidence, then the smallest index.
+    bool operator<(const Ranked& other) const {
+      return fresh < other.fresh || (fresh == other.fresh && candidate > other.candidate);
+    }
+  };
+  std::vector<Ranked> heap_;
   std::vector<Detection> detections_;
   std::vector<std::size_t> chosen_;  // the candidate of each detection
   std::vector<std::uint8_t> kept_;
