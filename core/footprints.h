@@ -112,6 +112,7 @@ class FootprintDetector {
   struct CellRange {
     int row0, column0, row1, column1;
   };
+  static void integratePixels(CameraPlane& plane, const std::uint8_t* changed);
   CellRange cellsWithin(double x_m, double y_m, double reach_m) const;
   std::uint32_t occupiedWithin(const CellRange& range) const;
   struct Candidate {
