@@ -278,10 +278,15 @@ std::vector<cv::Point> alongEdges(const cv::Mat& picture, const occmap::zone_t& 
   return points;
 }
 
+// Counted serially: cv::Mat::forEach runs on OpenCV's threads (a shared count there is a race).
 int countPixels(const cv::Mat& picture, const cv::Scalar& colour) {
+  const cv::Vec3b wanted = bgr(colour);
   int count = 0;
-  picture.forEach<cv::Vec3b>(
-      [&](const cv::Vec3b& pixel, const int*) { count += pixel == bgr(colour); });
+  for (int row = 0; row < picture.rows; ++row) {
+    for (int column = 0; column < picture.cols; ++column) {
+      count += picture.at<cv::Vec3b>(row, column) == wanted ? 1 : 0;
+    }
+  }
   return count;
 }
 
