@@ -173,6 +173,7 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
     boxes_[i] = box;
   }
   changed_.assign(cameras.size(), nullptr);
+  box_changed_.assign(cameras.size(), 0.0);
   occupied_.assign(
       static_cast<std::size_t>(map.width + 1) * static_cast<std::size_t>(map.height + 1), 0);
   alive_.reserve(candidates_.size());
@@ -202,17 +203,30 @@ std::uint32_t FootprintDetector::occupiedWithin(const CellRange& range) const {
   return rectangleSum(occupied_, map_.width, range.column0, range.row0, range.column1, range.row1);
 }
 
-FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c) const {
+FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c, double veto_support,
+                                                        int veto_cameras) const {
   const Candidate& candidate = candidates_[c];
   Evidence e;
+  // First the support, from one sum per camera: most candidates fail on it, and then what the
+  // people found explain (a look at every piece) need not be counted.
+  for (std::size_t k = 0; k < planes_.size(); ++k) {
+    const Box& box = boxes_[candidate.boxes + k];
+    if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
+    const CameraPlane& plane = planes_[k];
+    box_changed_[k] = rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
+    ++e.cameras;
+    e.support = std::min(e.support, box_changed_[k] / static_cast<double>(box.pixels));
+  }
+  if (e.cameras == 0) {
+    e.support = 0.0;
+    return e;
+  }
+  if (e.cameras < veto_cameras || e.support < veto_support) return e;  // fresh 0: it fails
   double fresh = 0.0;
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     const Box& box = boxes_[candidate.boxes + k];
     if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
     const CameraPlane& plane = planes_[k];
-    const double area = static_cast<double>(box.pixels);
-    const double changed =
-        rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
     // The changed pixels of the box that the people found cover: their boxes' union is kept as
     // disjoint pieces, so each piece's overlap counts once.
     double explained = 0.0;
@@ -222,13 +236,7 @@ FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c) const {
       if (u0 < u1 && v0 < v1)
         explained += rectangleSum(plane.changed, plane.across, u0, v0, u1, v1);
     }
-    ++e.cameras;
-    e.support = std::min(e.support, changed / area);
-    fresh += (changed - explained) / area;
-  }
-  if (e.cameras == 0) {
-    e.support = 0.0;
-    return e;
+    fresh += (box_changed_[k] - explained) / static_cast<double>(box.pixels);
   }
   e.fresh = fresh / e.cameras;
   return e;
@@ -297,7 +305,7 @@ void FootprintDetector::explainGreedily(std::size_t begin, std::size_t end) {
   // candidate that fails once fails for good: its cameras and support do not change.
   heap_.clear();
   for (const std::size_t c : alive_) {
-    const Evidence e = evidence(c);
+    const Evidence e = evidence(c, min_support, settings_.min_cameras);
     if (e.cameras < settings_.min_cameras || e.support < min_support || e.fresh < min_fresh) {
       continue;
     }

@@ -129,7 +129,10 @@ class FootprintDetector {
     double support = 1.0;  // the least share of changed pixels in a camera's box
     double fresh = 0.0;    // the mean share of changed pixels not yet explained
   };
-  Evidence evidence(std::size_t candidate) const;
+  // With a veto: a candidate seen by fewer cameras, or with less support, is given no fresh
+  // evidence (it fails) without counting what the people found explain.
+  Evidence evidence(std::size_t candidate, double veto_support = 0.0, int veto_cameras = 0) const;
+  mutable std::vector<double> box_changed_;  // evidence()'s: changed pixels in each camera's box
   // The changed pixels of the candidate's boxes become explained.
   void markExplained(std::size_t candidate);
   void forgetExplained();
