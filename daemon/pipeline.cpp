@@ -1,7 +1,9 @@
 #include "daemon/pipeline.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -9,6 +11,7 @@
 #include <stdexcept>
 
 #include <poll.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include "base/clock.h"
@@ -24,6 +27,8 @@ namespace occmap {
 namespace {
 
 constexpr std::int64_t kMs = 1'000'000;
+// The footprints thread's nice value: the map's threads first (setpriority(2) on a thread id).
+constexpr int kFootprintsNice = 10;
 // The longest a fusion or publisher round sleeps: camera states are looked at this often.
 constexpr std::int64_t kLongestWaitNs = 100 * kMs;
 
@@ -162,6 +167,13 @@ void Pipeline::start() {
   threads_.emplace_back([this] { guarded("fusion", kNoCamera, [this] { fusionLoop(); }); });
   if (footprints_) {
     footprints_thread_ = std::thread([this] {
+      // Below the map's path: on a machine with few cores the capture, fusion and publisher
+      // threads go first (SCHED_IDLE measured no better, and would starve the tracks under
+      // load; docs/detection.md has what the thread costs the map).
+      if (::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kFootprintsNice) != 0) {
+        logLine(LogLevel::kWarning, "the footprints thread keeps its priority: %s",
+                std::strerror(errno));
+      }
       guarded("footprints", kNoCamera, [this] { footprints_->run(publish_wakeup_); });
     });
   }
@@ -579,7 +591,12 @@ void Pipeline::fuse(std::int64_t now) {
     const std::vector<ZoneStatus>& zones = zones_->update(out.map.cells, out.time_s);
     std::copy(zones.begin(), zones.end(), out.zones.begin());
   }
+  if (maps_.publish()) maps_skipped_.fetch_add(1, std::memory_order_relaxed);
+  publish_wakeup_.signal();
   if (footprints_) {
+    // After the map is on its way: its copy for the detector must not delay it. `out` is only
+    // read from here on (the publisher reads it too), and fusion writes to it again only after
+    // another publish() has handed it back.
     // The detector's boxes are the config's poses: a camera re-posed after a knock (generation
     // above 0) says nothing to it until a reload gives it the new pose (docs/detection.md).
     for (std::size_t k = 0; k < cameras_.size(); ++k) {
@@ -588,8 +605,6 @@ void Pipeline::fuse(std::int64_t now) {
     }
     footprints_->offer(out.fused, out.utime, out.time_s, footprint_masks_, out.map.cells);
   }
-  if (maps_.publish()) maps_skipped_.fetch_add(1, std::memory_order_relaxed);
-  publish_wakeup_.signal();
   frame_set_.fused(now);
   maps_fused_.fetch_add(1, std::memory_order_relaxed);
 }
