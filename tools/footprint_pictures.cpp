@@ -42,19 +42,6 @@ cv::Scalar zoneStateColour(std::int8_t state) {
   }
 }
 
-std::string zoneStateText(std::int8_t state) {
-  switch (state) {
-    case occmap::zone_t::FREE:
-      return "free";
-    case occmap::zone_t::OCCUPIED:
-      return "occupied";
-    case occmap::zone_t::UNSEEN:
-      return "unseen";
-    default:
-      return "state " + std::to_string(state);
-  }
-}
-
 std::string printableName(const std::string& name) {
   constexpr std::size_t kLongest = 32;
   std::string out;

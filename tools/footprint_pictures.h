@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/map_geometry.h"
+#include "transport/status_text.h"  // zoneStateText
 
 namespace occmap::tools {
 
@@ -30,10 +31,8 @@ inline constexpr int kZoneLineThicknessPx = 3;             // centred on the pol
 inline constexpr double kTrackArrowSeconds = 1.0;          // the arrow shows this much motion
 
 cv::Scalar zoneStateColour(std::int8_t state);
-// "free", "occupied", "unseen", or "state N" for a value zone_t does not define.
-std::string zoneStateText(std::int8_t state);
-// A name from the network fit for a terminal or a picture: printable ASCII (anything else '?'),
-// at most 32 characters.
+// A name from the network fit for a picture (OpenCV's fonts draw ASCII only): printable ASCII,
+// anything else '?', at most 32 characters. On a terminal, terminalText (transport/status_text.h).
 std::string printableName(const std::string& name);
 
 // The zones' outlines and labels, the footprints and the tracks, over a floor plan of `map`.

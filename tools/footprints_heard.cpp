@@ -79,7 +79,7 @@ std::string FootprintsHeard::newestText() const {
   text += "  zones: ";
   for (std::size_t k = 0; k < zones.size() && k < kShown; ++k) {
     if (k > 0) text += ", ";
-    text += printableName(zones[k].name) + " " + zoneStateText(zones[k].state);
+    text += terminalText(zones[k].name) + " " + zoneStateText(zones[k].state);
   }
   if (zones.size() > kShown) text += " and " + std::to_string(zones.size() - kShown) + " more";
   return text;

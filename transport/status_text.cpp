@@ -105,12 +105,6 @@ std::string duration(double seconds) {
   return uptime(seconds);
 }
 
-// A zone_t's state: "free", "occupied", "unseen" (core/zones.h); "state N" otherwise.
-std::string zoneStateText(int state) {
-  if (state < 0 || state > 2) return formatText("state %d", state);
-  return std::string(zoneStateName(static_cast<ZoneState>(state)));
-}
-
 std::string formatZones(const occmap::zones_t& z) {
   if (z.zones.empty()) return "zones: none (a zones_t without zones)\n";
   std::vector<std::string> names;
@@ -148,6 +142,11 @@ std::string formatTracks(const occmap::tracks_t& t) {
 }
 
 }  // namespace
+
+std::string zoneStateText(int state) {
+  if (state < 0 || state > 2) return formatText("state %d", state);
+  return std::string(zoneStateName(static_cast<ZoneState>(state)));
+}
 
 std::string formatZonesAndTracks(const ZonesAndTracks& heard) {
   std::string text =

@@ -46,6 +46,10 @@ std::string formatStatusTable(const occmap::status_t& status,
 // heard in 0.7 s (is footprints: enabled: false?)"). Ends with a newline.
 std::string formatZonesAndTracks(const ZonesAndTracks& heard);
 
+// A zone_t's state in words: "free", "occupied", "unseen" (core/zones.h); "state N" for a value
+// the type does not define. The one wording of every command that shows zones.
+std::string zoneStateText(int state);
+
 // Each camera's light (docs/lighting.md), a line per camera: the gain against the background's
 // light and the share of pixels that agreed, or why it is degraded (with `view`, the
 // view_status_t published with it: whether the camera was moved, and how far it turned);
