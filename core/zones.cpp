@@ -55,6 +55,7 @@ const std::vector<ZoneStatus>& Zones::update(std::span<const CellState> cells, d
   if (cells.size() != cell_count_) throw std::invalid_argument("Zones: the map is not the zones'");
   for (std::size_t z = 0; z < cells_.size(); ++z) {
     ZoneStatus& status = status_[z];
+    status.cells = cells_[z].size();
     status.occupied_cells = 0;
     status.unseen_cells = 0;
     for (const std::uint32_t cell : cells_[z]) {

@@ -29,6 +29,7 @@ std::string_view zoneStateName(ZoneState state);
 struct ZoneStatus {
   ZoneState state = ZoneState::kUnseen;
   double changed_s = 0.0;  // when it took this state (the first map's time at first)
+  std::size_t cells = 0;   // whose centres lie inside the polygon
   std::size_t occupied_cells = 0;
   std::size_t unseen_cells = 0;
 };

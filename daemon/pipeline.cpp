@@ -53,14 +53,6 @@ MapFrame emptyMap(const Rig& rig) {
   return MapFrame(rig.config().map, rig.cameras().size(), rig.config().zones.size());
 }
 
-std::vector<std::size_t> zoneCells(const Config& config) {
-  std::vector<std::size_t> cells;
-  for (const ZoneSpec& zone : config.zones) {
-    cells.push_back(cellsInside(config.map, zone.polygon_m).size());
-  }
-  return cells;
-}
-
 }  // namespace
 
 Pipeline::Camera::Camera(const RigCamera& camera, double fps, const CameraHealthPolicy& policy,
@@ -86,7 +78,7 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
                      prepared_.rig.config().transport.map_channel,
                      prepared_.rig.config().transport.lcm_url),
       footprints_publisher_(prepared_.rig.config().transport.map_channel, hostName(),
-                            prepared_.rig.config().zones, zoneCells(prepared_.rig.config())) {
+                            prepared_.rig.config().zones) {
   const Config& config = prepared_.rig.config();
   const std::size_t cameras = prepared_.rig.cameras().size();
   if (prepared_.tables.size() != cameras) throw std::invalid_argument("one carve table per camera");
@@ -585,7 +577,7 @@ void Pipeline::fuse(std::int64_t now) {
   }
   out.utime = newest != 0 ? newest : hostTimeMicroseconds();
   out.newest_arrival_ns = newest_arrival;
-  out.fused = next_fused_++;
+  out.fused = maps_fused_.load(std::memory_order_relaxed);  // fusion alone writes it
   out.time_s = static_cast<double>(now) * 1e-9;
   if (zones_) {
     const std::vector<ZoneStatus>& zones = zones_->update(out.map.cells, out.time_s);

@@ -216,7 +216,6 @@ class Pipeline {
   TripleBuffer<MapFrame> maps_;
   TimeHistogram fusion_times_;
   std::optional<Zones> zones_;
-  std::uint64_t next_fused_ = 0;
 
   // The people on the maps: their own thread (footprints_stage.h), nullptr when off.
   std::unique_ptr<FootprintsStage> footprints_;

@@ -9,10 +9,8 @@
 namespace occmap {
 
 FootprintsPublisher::FootprintsPublisher(const std::string& map_channel, std::string hostname,
-                                         std::span<const ZoneSpec> zones,
-                                         std::span<const std::size_t> zone_cells)
+                                         std::span<const ZoneSpec> zones)
     : tracks_channel_(tracksChannel(map_channel)), zones_channel_(zonesChannel(map_channel)) {
-  assert(zones.size() == zone_cells.size());
   tracks_.hostname = hostname;
   zones_.hostname = std::move(hostname);
   zones_.num_zones = static_cast<std::int16_t>(zones.size());
@@ -20,7 +18,6 @@ FootprintsPublisher::FootprintsPublisher(const std::string& map_channel, std::st
   for (std::size_t k = 0; k < zones.size(); ++k) {
     occmap::zone_t& zone = zones_.zones[k];
     zone.name = zones[k].name;
-    zone.cells = static_cast<std::int32_t>(zone_cells[k]);
     zone.num_corners = static_cast<std::int16_t>(zones[k].polygon_m.size());
     for (const Eigen::Vector2d& corner : zones[k].polygon_m) {
       zone.corner_x_m.push_back(corner.x());
@@ -52,6 +49,7 @@ bool FootprintsPublisher::publishZones(Bus& bus, std::int64_t seq, std::int64_t 
     occmap::zone_t& zone = zones_.zones[k];
     zone.state = static_cast<std::int8_t>(zones[k].state);
     zone.state_s = time_s - zones[k].changed_s;
+    zone.cells = static_cast<std::int32_t>(zones[k].cells);
     zone.occupied_cells = static_cast<std::int32_t>(zones[k].occupied_cells);
     zone.unseen_cells = static_cast<std::int32_t>(zones[k].unseen_cells);
   }

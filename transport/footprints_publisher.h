@@ -20,9 +20,9 @@ namespace occmap {
 
 class FootprintsPublisher {
  public:
-  // `zones` as in the config, with the number of map cells of each (Zones::cells).
+  // `zones` as in the config.
   FootprintsPublisher(const std::string& map_channel, std::string hostname,
-                      std::span<const ZoneSpec> zones, std::span<const std::size_t> zone_cells);
+                      std::span<const ZoneSpec> zones);
 
   // The zones' states on the map numbered `seq`, made at `time_s` (the times the zones were given).
   // False when it could not be sent (counted in errors()). Nothing is sent when there are no zones.
