@@ -5,8 +5,6 @@
 
 #include <poll.h>
 
-#include "base/clock.h"
-
 namespace occmap {
 
 FootprintsStage::Offer FootprintsStage::emptyOffer(std::span<const std::size_t> mask_bytes,
@@ -73,7 +71,6 @@ void FootprintsStage::run(const EventFd& found) {
 bool FootprintsStage::findNewest() {
   if (!offers_.takeLatest()) return false;
   const Offer& offer = offers_.readBuffer();
-  const std::int64_t began = monotonicNanoseconds();
   for (std::size_t k = 0; k < masks_.size(); ++k) {
     masks_[k] = offer.used[k] != 0 ? offer.changed[k].data() : nullptr;
   }
@@ -84,7 +81,6 @@ bool FootprintsStage::findNewest() {
   out.utime = offer.utime;
   out.footprints.assign(footprints.begin(), footprints.end());
   out.tracks.assign(tracks.begin(), tracks.end());
-  times_.record(monotonicNanoseconds() - began);
   results_.publish();
   return true;
 }

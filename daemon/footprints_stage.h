@@ -16,7 +16,6 @@
 #include <vector>
 
 #include "base/event_fd.h"
-#include "base/time_histogram.h"
 #include "core/camera.h"
 #include "core/footprints.h"
 #include "core/map_geometry.h"
@@ -53,8 +52,6 @@ class FootprintsStage {
   const FootprintsFound* takeLatest() {
     return results_.takeLatest() ? &results_.readBuffer() : nullptr;
   }
-  // Time to find and follow the people on one map.
-  const TimeHistogram& times() const { return times_; }
 
   // One round of the thread's: the people on the newest offer, handed to takeLatest(); false when
   // there was no new offer. Public for the benchmark (bench/footprints_bench.cpp), which runs the
@@ -80,7 +77,6 @@ class FootprintsStage {
   std::vector<const std::uint8_t*> masks_;
   EventFd wakeup_;
   std::atomic<bool> stopping_{false};
-  TimeHistogram times_;
 };
 
 }  // namespace occmap

@@ -85,10 +85,6 @@ class Pipeline {
   // frame's way to the network.
   const TimeHistogram& fusionTimes() const { return fusion_times_; }
   const TimeHistogram& publishLatency() const { return map_publisher_.latency(); }
-  // How long finding and following the people takes per map (empty when footprints are off).
-  const TimeHistogram* footprintTimes() const {
-    return footprints_ ? &footprints_->times() : nullptr;
-  }
   // Frames lost on the way, over all cameras (bad frames, wrong sizes).
   std::uint64_t framesDropped() const;
   // Frames fusion never took because a newer one of the same camera came first (fusion fuses the
