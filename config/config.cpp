@@ -45,9 +45,9 @@ constexpr std::string_view kTopKeys[] = {"map",     "cameras",    "fusion", "tra
                                          "control", "footprints", "zones"};
 constexpr std::string_view kZoneKeys[] = {"name", "polygon_m"};
 constexpr std::string_view kFootprintKeys[] = {
-    "box_width_m",     "box_height_m",       "step_m",          "min_support",
-    "min_fresh",       "min_separation_m",   "min_cameras",     "enabled",
-    "object_height_m", "object_min_support", "object_min_fresh"};
+    "box_width_m",     "box_height_m",       "step_m",           "min_support",
+    "min_fresh",       "min_separation_m",   "min_cameras",      "enabled",
+    "object_height_m", "object_min_support", "object_min_fresh", "settle_reach_m"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
@@ -460,6 +460,8 @@ class ConfigReader {
         footprints.object_min_support = real(entry.value, 0.0, true, 1.0, "");
       } else if (entry.key == "object_min_fresh") {
         footprints.object_min_fresh = real(entry.value, 0.0, true, 1.0, "");
+      } else if (entry.key == "settle_reach_m") {
+        footprints.settle_reach_m = real(entry.value, 0.0, false, 5.0, " m");
       }
     }
     return footprints;

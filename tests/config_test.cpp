@@ -253,7 +253,8 @@ TEST(Config, FootprintsAreReadAndChecked) {
       kMinimal +
           "footprints: {box_width_m: 0.6, box_height_m: 1.2, step_m: 0.05, min_support: "
           "0.3, min_fresh: 0.15, min_cameras: 3, min_separation_m: 0.4, enabled: false, "
-          "object_height_m: 0, object_min_support: 0.5, object_min_fresh: 0.25}\n",
+          "object_height_m: 0, object_min_support: 0.5, object_min_fresh: 0.25, "
+          "settle_reach_m: 0.3}\n",
       "/etc/occmap/occmap.yaml");
   EXPECT_FALSE(config.footprints.enabled);
   EXPECT_DOUBLE_EQ(config.footprints.object_height_m, 0.0);
@@ -266,12 +267,16 @@ TEST(Config, FootprintsAreReadAndChecked) {
   EXPECT_DOUBLE_EQ(config.footprints.min_fresh, 0.15);
   EXPECT_EQ(config.footprints.min_cameras, 3);
   EXPECT_DOUBLE_EQ(config.footprints.min_separation_m, 0.4);
+  EXPECT_DOUBLE_EQ(config.footprints.settle_reach_m, 0.3);
+  EXPECT_DOUBLE_EQ(defaults.footprints.settle_reach_m, 0.5);
   expectError(kMinimal + "footprints: {min_support: 1.5}\n", 5, "footprints.min_support",
               "must be <= 1");
   expectError(kMinimal + "footprints: {min_cameras: 0}\n", 5, "footprints.min_cameras", "");
   expectError(kMinimal + "footprints: {object_height_m: -1}\n", 5, "footprints.object_height_m",
               "");
   expectError(kMinimal + "footprints: {enabled: maybe}\n", 5, "footprints.enabled", "");
+  expectError(kMinimal + "footprints: {settle_reach_m: -0.1}\n", 5, "footprints.settle_reach_m",
+              "");
   expectError(kMinimal + "footprints: {box_heigth_m: 2}\n", 5, "footprints.box_heigth_m",
               "did you mean box_height_m?");
 }

@@ -212,14 +212,16 @@ TEST(EpflTerrace, PeopleAreFoundAsWellAsPomFindsThemInTheCrowd) {
   }
   TemporaryFolder folder;
   // Measured 2026-12-06: the sample 75.0 % MODA (7 of 8 people, 1 false positive); the crowd
-  // MODA 73.0 %, MODP 61.9 %, precision 86.7 %, recall 86.3 %.
+  // MODA 79.5 %, MODP 64.9 %, precision 90.1 %, recall 89.2 % (before people settled beside each
+  // other: 73.9 %, 61.8 %, 86.6 %, 87.3 %). The target on further moments: MODA 70 % with
+  // precision 90 %.
   const nlohmann::json sample = detectAndScore(folder, "epfl-terrace", 10);
   EXPECT_GE(sample["recall"].get<double>(), 0.75);
   const nlohmann::json crowd = detectAndScore(folder, "epfl-terrace-crowd", 94);
   EXPECT_EQ(crowd["people"].get<int>(), 482);
   EXPECT_GE(crowd["moda"].get<double>(), 0.70) << "POM scores 0.660 here";
   EXPECT_GE(crowd["modp"].get<double>(), 0.592) << "POM's";
-  EXPECT_GE(crowd["precision"].get<double>(), 0.85);
+  EXPECT_GE(crowd["precision"].get<double>(), 0.90);
   EXPECT_GE(crowd["recall"].get<double>(), 0.80);
 }
 

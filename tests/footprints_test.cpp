@@ -134,9 +134,12 @@ TEST(Footprints, FindsEveryoneInRandomCrowdsAndNoGhosts) {
   std::printf("%zu people: MODA %.3f, precision %.3f, recall %.3f, mean distance %.3f m\n",
               s.people, s.moda(), s.precision(), s.recall(),
               s.distance_m / static_cast<double>(std::max<std::size_t>(1, s.pairs)));
-  EXPECT_GE(s.moda(), 0.9) << "misses " << s.misses() << ", false positives " << s.falsePositives();
-  EXPECT_GE(s.precision(), 0.95);
-  EXPECT_GE(s.recall(), 0.95);
+  // Measured 2026-12-06: MODA 0.992, precision 1.000, recall 0.992 (0.930, 0.969, 0.961 before
+  // people settled beside each other).
+  EXPECT_GE(s.moda(), 0.97) << "misses " << s.misses() << ", false positives "
+                            << s.falsePositives();
+  EXPECT_GE(s.precision(), 0.98);
+  EXPECT_GE(s.recall(), 0.97);
   EXPECT_GE(s.modp(), 0.5) << "a mean distance of " << s.distance_m / static_cast<double>(s.pairs)
                            << " m";
 }
