@@ -22,7 +22,8 @@
 // the largest share of changed pixels not yet explained (its fresh evidence, the mean over its
 // cameras) is taken, its boxes' changed pixels become explained, and the rest are judged again,
 // until none adds min_fresh; then each detection is judged again against what all the others
-// explain (docs/detection.md, "How people are found").
+// explain, settles where its boxes best explain the pixels no one else's cover, and must have
+// changed enough of those (docs/detection.md, "How people are found").
 // No I/O, no threads; buffers are made once, nothing is allocated per frame set once the
 // detections have their largest count.
 
