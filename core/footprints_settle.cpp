@@ -1,0 +1,143 @@
+// Settling (docs/detection.md, "How people are found", steps 6 and 7): once the greedy
+// explanation has found everyone, each person moves to where their boxes best explain the pixels
+// that no one else's box covers, and must have changed enough of those. Taken one at a time,
+// people in a crowd land where the silhouettes of several overlap; beside the others they move
+// onto their own.
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/footprints.h"
+#include "core/integral_image.h"
+
+namespace occmap {
+
+FootprintDetector::Fit FootprintDetector::fit(std::size_t c) const {
+  // An unchanged open pixel costs what makes a box whose open pixels changed at exactly
+  // min_support gain nothing: lambda = s / (1 - s).
+  const double lambda = settings_.min_support / std::max(1e-9, 1.0 - settings_.min_support);
+  const Candidate& candidate = candidates_[c];
+  Fit f;
+  f.support = 1.0;
+  double own_weight = 0.0;
+  for (std::size_t k = 0; k < planes_.size(); ++k) {
+    const Box& box = boxes_[candidate.boxes + k];
+    if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
+    const CameraPlane& plane = planes_[k];
+    const double pixels = static_cast<double>(box.pixels);
+    const double changed =
+        rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
+    double explained = 0.0, covered = 0.0;
+    for (const Box& piece : plane.pieces) {
+      const int u0 = std::max(box.u0, piece.u0), u1 = std::min(box.u1, piece.u1);
+      const int v0 = std::max(box.v0, piece.v0), v1 = std::min(box.v1, piece.v1);
+      if (u0 < u1 && v0 < v1) {
+        explained += rectangleSum(plane.changed, plane.across, u0, v0, u1, v1);
+        covered += static_cast<double>((u1 - u0) * (v1 - v0));
+      }
+    }
+    // Blocks to pixels (a box at the image's edge may hold fewer than its blocks).
+    covered = std::min(pixels, covered * plane.block * plane.block);
+    const double fresh = changed - explained, open = pixels - covered;
+    ++f.cameras;
+    f.support = std::min(f.support, changed / pixels);
+    f.gain += (fresh - lambda * std::max(0.0, open - fresh)) / pixels;
+    f.own += fresh / pixels;
+    own_weight += open / pixels;
+  }
+  if (f.cameras == 0) return {};
+  f.gain /= f.cameras;
+  // Each camera weighs by how much of the box is open to it: a sliver beside someone else's box
+  // is mostly the box's margin around the person, and says little (averaged per camera, the
+  // room's people were found on 93 % of maps instead of 99 %).
+  f.own = own_weight > 0 ? f.own / own_weight : 0.0;
+  return f;
+}
+
+// Only the pieces that some box of the candidates within `steps` of the grid's place (row,
+// column) touches, in each camera: they are all that settle() judges there (the others' pieces
+// are some 60 a camera in a crowd of twelve, a handful of them near one person).
+void FootprintDetector::keepPiecesNear(int row, int column, int steps) {
+  for (std::size_t k = 0; k < planes_.size(); ++k) {
+    Box window{kNotSeen, kNotSeen, 0, 0, 0.0f};
+    for (int r = std::max(0, row - steps); r <= std::min(grid_down_ - 1, row + steps); ++r) {
+      for (int col = std::max(0, column - steps); col <= std::min(grid_across_ - 1, column + steps);
+           ++col) {
+        const std::uint32_t n =
+            grid_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_across_) +
+                  static_cast<std::size_t>(col)];
+        if (n == kNoCandidate) continue;
+        const Box& box = boxes_[candidates_[n].boxes + k];
+        if (box.u0 == kNotSeen) continue;
+        window = {std::min(window.u0, box.u0), std::min(window.v0, box.v0),
+                  std::max(window.u1, box.u1), std::max(window.v1, box.v1), 0.0f};
+      }
+    }
+    std::vector<Box>& pieces = planes_[k].pieces;
+    pieces.erase(std::remove_if(pieces.begin(), pieces.end(),
+                                [&](const Box& piece) {
+                                  return piece.u1 <= window.u0 || window.u1 <= piece.u0 ||
+                                         piece.v1 <= window.v0 || window.v1 <= piece.v0;
+                                }),
+                 pieces.end());
+  }
+}
+
+// Each person, with everyone else's boxes explained, moves to the place on the candidates' grid
+// within settle_reach_m of where they were found whose gain is the largest, never closer than
+// min_separation_m to another, and only where they keep the cameras and the support that found
+// them. Every place within reach is judged: climbing from neighbour to neighbour stopped at
+// nearer, worse places (EPFL Terrace's crowd: MODA 77.6 % against 79.7 %).
+void FootprintDetector::settle() {
+  const double reach2 = settings_.settle_reach_m * settings_.settle_reach_m;
+  const double separation2 = settings_.min_separation_m * settings_.min_separation_m;
+  for (std::size_t i = 0; i < detections_.size(); ++i) {
+    if (chosen_[i] >= first_low_) continue;
+    forgetExplained();
+    for (std::size_t j = 0; j < chosen_.size(); ++j) {
+      if (j != i) markExplained(chosen_[j]);
+    }
+    const Candidate& start = candidates_[chosen_[i]];
+    const int row = static_cast<int>(start.on_grid) / grid_across_;
+    const int column = static_cast<int>(start.on_grid) % grid_across_;
+    const int steps = static_cast<int>(std::floor(settings_.settle_reach_m / step_ + 1e-9));
+    keepPiecesNear(row, column, steps);
+    std::size_t at = chosen_[i];
+    double best = fit(at).gain;
+    for (int r = std::max(0, row - steps); r <= std::min(grid_down_ - 1, row + steps); ++r) {
+      for (int col = std::max(0, column - steps); col <= std::min(grid_across_ - 1, column + steps);
+           ++col) {
+        const std::uint32_t n =
+            grid_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_across_) +
+                  static_cast<std::size_t>(col)];
+        if (n == kNoCandidate || n == chosen_[i]) continue;
+        const Candidate& there = candidates_[n];
+        const double sx = there.x_m - start.x_m, sy = there.y_m - start.y_m;
+        if (sx * sx + sy * sy > reach2 || occupiedWithin(there.near) == 0) continue;
+        const bool crowded = std::any_of(chosen_.begin(), chosen_.end(), [&](std::size_t o) {
+          const double dx = candidates_[o].x_m - there.x_m, dy = candidates_[o].y_m - there.y_m;
+          return o != chosen_[i] && dx * dx + dy * dy < separation2;
+        });
+        if (crowded) continue;
+        const Fit f = fit(n);
+        if (f.cameras < settings_.min_cameras || f.support < settings_.min_support) continue;
+        if (f.gain > best) {
+          best = f.gain;
+          at = n;
+        }
+      }
+    }
+    if (at == chosen_[i]) continue;
+    chosen_[i] = at;
+    const Candidate& settled = candidates_[at];
+    detections_[i].x_m = settled.x_m;
+    detections_[i].y_m = settled.y_m;
+    detections_[i].area_m2 =
+        occupiedWithin(cellsWithin(settled.x_m, settled.y_m, settings_.box_width_m / 2)) *
+        map_.cell_size_m * map_.cell_size_m;
+    detections_[i].score = fit(at).support;
+  }
+}
+
+}  // namespace occmap
