@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <Eigen/Dense>
@@ -19,6 +20,7 @@ Tracker::Tracker(const TrackerSettings& settings) : settings_(settings) {
   states_.reserve(kRoom);
   out_.reserve(kRoom);
   cost_.reserve(kRoom * kRoom);
+  tier_cost_.reserve(kRoom * kRoom);
   used_.reserve(kRoom);
   assignment_.reserve(kRoom, kRoom);
 }
@@ -63,19 +65,36 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
   for (State& state : states_) predict(state, dt);
   // Detections to predicted tracks: the most pairs within the gate, then the least distance.
   cost_.resize(states_.size() * detections.size());
+  tier_cost_.resize(cost_.size());
   for (std::size_t t = 0; t < states_.size(); ++t) {
     for (std::size_t d = 0; d < detections.size(); ++d) {
       cost_[t * detections.size() + d] =
           std::hypot(detections[d].x_m - states_[t].x(0), detections[d].y_m - states_[t].x(1));
     }
   }
-  const std::vector<int>& pairs =
-      assignment_.solve(cost_, states_.size(), detections.size(), settings_.gate_m);
+  // Confirmed tracks first, then the tentative ones from what is left: a tentative track, born
+  // of a stray or a ghost beside someone, would otherwise take that person's detection from their
+  // track when nearer its prediction (room-crowd's first 300 maps: MOTA 67.4 -> 72.0 %, IDF1
+  // 42.5 -> 51.4 %; the room unchanged). Also ranking the confirmed tracks seen on this map's
+  // predecessor above those coasting (DeepSORT's cascade) helped the crowd more but cost the
+  // room (MOTA 96.7 -> 91.1 %): not kept.
   used_.assign(detections.size(), 0);
-  for (std::size_t t = 0; t < states_.size(); ++t) {
-    if (pairs[t] < 0) continue;
-    used_[static_cast<std::size_t>(pairs[t])] = 1;
-    correct(states_[t], detections[static_cast<std::size_t>(pairs[t])], time_s);
+  constexpr double kNoPair = std::numeric_limits<double>::infinity();
+  for (const bool confirmed : {true, false}) {
+    for (std::size_t t = 0; t < states_.size(); ++t) {
+      for (std::size_t d = 0; d < detections.size(); ++d) {
+        const std::size_t i = t * detections.size() + d;
+        tier_cost_[i] =
+            states_[t].track.confirmed == confirmed && used_[d] == 0 ? cost_[i] : kNoPair;
+      }
+    }
+    const std::vector<int>& pairs =
+        assignment_.solve(tier_cost_, states_.size(), detections.size(), settings_.gate_m);
+    for (std::size_t t = 0; t < states_.size(); ++t) {
+      if (pairs[t] < 0) continue;
+      used_[static_cast<std::size_t>(pairs[t])] = 1;
+      correct(states_[t], detections[static_cast<std::size_t>(pairs[t])], time_s);
+    }
   }
   // Tracks end: tentative ones not confirmed in time, any not seen for lost_after_s.
   std::erase_if(states_, [&](const State& state) {

@@ -4,7 +4,8 @@
 // hand-over between cameras is needed.
 // Each track is a constant-velocity Kalman filter on the floor (state x, y, vx, vy; white
 // acceleration noise); each map's detections are given to the predicted tracks by the optimal
-// assignment (core/assignment.h) under a gate; a detection given to no track starts a tentative
+// assignment (core/assignment.h) under a gate, the confirmed tracks first and the tentative ones
+// from the detections left; a detection given to no track starts a tentative
 // one, which is confirmed after `confirm_hits` detections within `confirm_within_s`; a track that
 // gets no detection coasts on its velocity and is ended after `lost_after_s` (two seconds: a
 // person hidden behind another for that long keeps their identity).
@@ -70,6 +71,7 @@ class Tracker {
   std::vector<State> states_;
   std::vector<Track> out_;
   std::vector<double> cost_;
+  std::vector<double> tier_cost_;  // cost_ for one tier of tracks, the others no pair
   std::vector<char> used_;
   Assignment assignment_;
   std::uint32_t next_id_ = 1;
