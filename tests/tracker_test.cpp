@@ -104,6 +104,32 @@ TEST(Tracker, OneStrayDetectionIsNoTrack) {
   EXPECT_THROW(tracker.update({}, 1.0), std::invalid_argument) << "time went back";
 }
 
+// A ghost found beside someone for a few maps starts a tentative track; when the person's
+// detection then lies nearer the ghost's track than the person's own prediction, it still goes to
+// the person's confirmed track, which keeps its identity and its place.
+TEST(Tracker, AConfirmedTrackKeepsItsPersonFromATentativeOneNearer) {
+  Tracker tracker;
+  const double dt = 1.0 / 30;
+  double t = 0.0;
+  // A person standing at (1, 1) for a second: confirmed.
+  std::vector<Track> tracks;
+  for (int i = 0; i < 30; ++i, t += dt)
+    tracks = tracker.update(std::vector<Detection>{{1.0, 1.0}}, t);
+  ASSERT_EQ(tracks.size(), 1u);
+  const std::uint32_t id = tracks[0].id;
+  // Then hidden for half a second, while a ghost appears 0.8 m away (beyond the 0.75 m gate) for
+  // two maps: a tentative track of its own.
+  for (int i = 0; i < 13; ++i, t += dt) tracker.update({}, t);
+  for (int i = 0; i < 2; ++i, t += dt) tracker.update(std::vector<Detection>{{1.8, 1.0}}, t);
+  // The person is found again at (1.45, 1.0): 0.35 m from the ghost's track, 0.45 m from their
+  // own (which stood still). Both within the gate; the confirmed track takes it.
+  tracks = tracker.update(std::vector<Detection>{{1.45, 1.0}}, t);
+  ASSERT_EQ(tracks.size(), 1u) << "the ghost's track is not confirmed";
+  EXPECT_EQ(tracks[0].id, id);
+  EXPECT_EQ(tracks[0].unseen_s, 0.0) << "the person's track was given the detection";
+  EXPECT_GT(tracks[0].x_m, 1.2) << "corrected towards the detection";
+}
+
 TEST(TrackScore, CountsASwitchAndPairsIdentitiesOnceForIdf1) {
   TrackScorer scorer(0.5);
   const std::vector<std::int64_t> person = {7};
