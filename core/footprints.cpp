@@ -19,7 +19,10 @@ const auto kBitsIn = [] {
   std::array<std::array<std::array<std::uint8_t, 8>, 256>, 4> bits{};
   for (unsigned b = 0; b < 4; ++b) {
     for (unsigned byte = 0; byte < 256; ++byte) {
-      for (unsigned bit = 0; bit < 8; ++bit) bits[b][byte][bit >> b] += (byte >> bit) & 1u;
+      for (unsigned bit = 0; bit < 8; ++bit) {
+        std::uint8_t& count = bits[b][byte][bit >> b];
+        count = static_cast<std::uint8_t>(count + ((byte >> bit) & 1u));
+      }
     }
   }
   return bits;
