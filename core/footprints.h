@@ -163,6 +163,8 @@ class FootprintDetector {
   void keepOnly(Fails fails);
   void settle();
   void keepPiecesNear(int row, int column, int steps);
+  template <class Visit>
+  void forEachNear(int row, int column, int steps, Visit visit) const;
 
   MapGeometry map_;
   FootprintSettings settings_;

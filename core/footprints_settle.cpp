@@ -55,25 +55,33 @@ FootprintDetector::Fit FootprintDetector::fit(std::size_t c) const {
   return f;
 }
 
+// Calls visit(candidate) for each people's candidate on the grid within `steps` places of (row,
+// column) across and down.
+template <class Visit>
+void FootprintDetector::forEachNear(int row, int column, int steps, Visit visit) const {
+  for (int r = std::max(0, row - steps); r <= std::min(grid_down_ - 1, row + steps); ++r) {
+    for (int col = std::max(0, column - steps); col <= std::min(grid_across_ - 1, column + steps);
+         ++col) {
+      const std::uint32_t n =
+          grid_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_across_) +
+                static_cast<std::size_t>(col)];
+      if (n != kNoCandidate) visit(static_cast<std::size_t>(n));
+    }
+  }
+}
+
 // Only the pieces that some box of the candidates within `steps` of the grid's place (row,
 // column) touches, in each camera: they are all that settle() judges there (the others' pieces
 // are some 60 a camera in a crowd of twelve, a handful of them near one person).
 void FootprintDetector::keepPiecesNear(int row, int column, int steps) {
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     Box window{kNotSeen, kNotSeen, 0, 0, 0.0f};
-    for (int r = std::max(0, row - steps); r <= std::min(grid_down_ - 1, row + steps); ++r) {
-      for (int col = std::max(0, column - steps); col <= std::min(grid_across_ - 1, column + steps);
-           ++col) {
-        const std::uint32_t n =
-            grid_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_across_) +
-                  static_cast<std::size_t>(col)];
-        if (n == kNoCandidate) continue;
-        const Box& box = boxes_[candidates_[n].boxes + k];
-        if (box.u0 == kNotSeen) continue;
-        window = {std::min(window.u0, box.u0), std::min(window.v0, box.v0),
-                  std::max(window.u1, box.u1), std::max(window.v1, box.v1), 0.0f};
-      }
-    }
+    forEachNear(row, column, steps, [&](std::size_t n) {
+      const Box& box = boxes_[candidates_[n].boxes + k];
+      if (box.u0 == kNotSeen) return;
+      window = {std::min(window.u0, box.u0), std::min(window.v0, box.v0),
+                std::max(window.u1, box.u1), std::max(window.v1, box.v1), 0.0f};
+    });
     std::vector<Box>& pieces = planes_[k].pieces;
     pieces.erase(std::remove_if(pieces.begin(), pieces.end(),
                                 [&](const Box& piece) {
@@ -105,29 +113,23 @@ void FootprintDetector::settle() {
     keepPiecesNear(row, column, steps);
     std::size_t at = chosen_[i];
     double best = fit(at).gain;
-    for (int r = std::max(0, row - steps); r <= std::min(grid_down_ - 1, row + steps); ++r) {
-      for (int col = std::max(0, column - steps); col <= std::min(grid_across_ - 1, column + steps);
-           ++col) {
-        const std::uint32_t n =
-            grid_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_across_) +
-                  static_cast<std::size_t>(col)];
-        if (n == kNoCandidate || n == chosen_[i]) continue;
-        const Candidate& there = candidates_[n];
-        const double sx = there.x_m - start.x_m, sy = there.y_m - start.y_m;
-        if (sx * sx + sy * sy > reach2 || occupiedWithin(there.near) == 0) continue;
-        const bool crowded = std::any_of(chosen_.begin(), chosen_.end(), [&](std::size_t o) {
-          const double dx = candidates_[o].x_m - there.x_m, dy = candidates_[o].y_m - there.y_m;
-          return o != chosen_[i] && dx * dx + dy * dy < separation2;
-        });
-        if (crowded) continue;
-        const Fit f = fit(n);
-        if (f.cameras < settings_.min_cameras || f.support < settings_.min_support) continue;
-        if (f.gain > best) {
-          best = f.gain;
-          at = n;
-        }
+    forEachNear(row, column, steps, [&](std::size_t n) {
+      if (n == chosen_[i]) return;
+      const Candidate& there = candidates_[n];
+      const double sx = there.x_m - start.x_m, sy = there.y_m - start.y_m;
+      if (sx * sx + sy * sy > reach2 || occupiedWithin(there.near) == 0) return;
+      const bool crowded = std::any_of(chosen_.begin(), chosen_.end(), [&](std::size_t o) {
+        const double dx = candidates_[o].x_m - there.x_m, dy = candidates_[o].y_m - there.y_m;
+        return o != chosen_[i] && dx * dx + dy * dy < separation2;
+      });
+      if (crowded) return;
+      const Fit f = fit(n);
+      if (f.cameras < settings_.min_cameras || f.support < settings_.min_support) return;
+      if (f.gain > best) {
+        best = f.gain;
+        at = n;
       }
-    }
+    });
     if (at == chosen_[i]) continue;
     chosen_[i] = at;
     const Candidate& settled = candidates_[at];
