@@ -3,6 +3,8 @@
 // share (the zones' states, the masks and map copied for the footprints thread) and the footprints
 // thread's (detection and tracking), run one after the other on one core, on a continuous
 // sequence of real maps so that the tracker follows what it would follow live:
+//   room         the paper's rig (below) with the room's own two people walking, two chairs
+//                pushed about and the robot (sim://room, the demo's scene), 300 maps
 //   room-crowd   the paper's rig (four 640 x 480 cameras, 512 x 512 cells of 2 cm, 0.3 m columns)
 //                with twelve people crossing, two chairs and the robot (sim://room-crowd), 300 maps
 //   terrace      EPFL Terrace's four 360 x 288 cameras on 300 x 440 cells
@@ -165,6 +167,12 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   const std::filesystem::path source = OCCMAP_SOURCE_DIR;
   std::vector<std::unique_ptr<Sequence>> sequences;
+  {
+    const std::filesystem::path file = source / "examples/sim-room.yaml";
+    std::fprintf(stderr, "footprints_bench: rendering 300 maps of sim://room ...\n");
+    sequences.push_back(std::make_unique<Sequence>(makeSequence(readText(file), file, 300)));
+    benchmark::RegisterBenchmark("room/stage", stageCase, sequences.back().get());
+  }
   {
     const std::filesystem::path file = source / "examples/sim-room.yaml";
     const std::string yaml =
