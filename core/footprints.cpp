@@ -41,6 +41,19 @@ const auto kRunning = [] {
   return running;
 }();
 
+// The integral image's next n (at most 8) entries of a row: out[i] = above[i] + sum + the set bits
+// of byte among bits 0..i. Returns the row's running sum past them.
+std::uint32_t integrateByte(std::uint32_t* out, const std::uint32_t* above, std::uint32_t sum,
+                            unsigned byte, std::size_t n) {
+  const std::array<std::uint32_t, 8>& running = kRunning[byte];
+  if (n == 8) {
+    for (std::size_t i = 0; i < 8; ++i) out[i] = above[i] + sum + running[i];
+  } else {
+    for (std::size_t i = 0; i < n; ++i) out[i] = above[i] + sum + running[i];
+  }
+  return sum + running[7];
+}
+
 }  // namespace
 
 FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Camera> cameras,
@@ -235,6 +248,11 @@ std::uint32_t FootprintDetector::occupiedWithin(const CellRange& range) const {
   return rectangleSum(occupied_, map_.width, range.column0, range.row0, range.column1, range.row1);
 }
 
+double FootprintDetector::footprintArea(const Candidate& candidate) const {
+  return occupiedWithin(cellsWithin(candidate.x_m, candidate.y_m, settings_.box_width_m / 2)) *
+         map_.cell_size_m * map_.cell_size_m;
+}
+
 FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c, double veto_support,
                                                         int veto_cameras) const {
   const Candidate& candidate = candidates_[c];
@@ -340,7 +358,6 @@ void FootprintDetector::explainGreedily(std::size_t begin, std::size_t end) {
     }
     alive_.push_back(c);
   }
-  const double half = settings_.box_width_m / 2;
   const bool low = begin >= first_low_;
   const double min_support = low ? settings_.object_min_support : settings_.min_support;
   const double min_fresh = low ? settings_.object_min_fresh : settings_.min_fresh;
@@ -377,10 +394,7 @@ void FootprintDetector::explainGreedily(std::size_t begin, std::size_t end) {
       std::push_heap(heap_.begin(), heap_.end());
       continue;
     }
-    // The footprint's area: the occupied cells under the box.
-    const double area_m2 = occupiedWithin(cellsWithin(found.x_m, found.y_m, half)) *
-                           map_.cell_size_m * map_.cell_size_m;
-    detections_.push_back({found.x_m, found.y_m, area_m2, top.support,
+    detections_.push_back({found.x_m, found.y_m, footprintArea(found), top.support,
                            low ? settings_.object_height_m : settings_.box_height_m});
     chosen_.push_back(top.candidate);
     markExplained(top.candidate);
@@ -405,13 +419,10 @@ void FootprintDetector::integratePixels(CameraPlane& plane, const std::uint8_t* 
       const std::size_t n = std::min<std::size_t>(8, width - u0);
       // Bits past the image's width (the last tile's padding) do not count.
       const unsigned byte = bytes[tile * 8] & ((1u << n) - 1u);
-      const std::array<std::uint32_t, 8>& running = kRunning[byte];
-      if (n == 8) {
-        for (std::size_t i = 0; i < 8; ++i) row[u0 + i] = above[u0 + i] + sum + running[i];
-      } else {
-        for (std::size_t i = 0; i < n; ++i) row[u0 + i] = above[u0 + i] + sum + running[i];
-      }
-      sum += running[7];
+      // A whole tile with the count a constant, which the compiler unrolls (with n alone,
+      // Terrace's stage took some 4 % longer).
+      sum = n == 8 ? integrateByte(row + u0, above + u0, sum, byte, 8)
+                   : integrateByte(row + u0, above + u0, sum, byte, n);
     }
   }
 }
@@ -439,9 +450,8 @@ void FootprintDetector::integrateOccupied(std::span<const CellState> cells) {
       std::uint64_t states;
       std::memcpy(&states, in + column, sizeof states);
       const std::uint64_t occupied = states & ~(states >> 1) & kLowBits;
-      const std::array<std::uint32_t, 8>& running = kRunning[(occupied * kGather) >> 56];
-      for (std::size_t i = 0; i < 8; ++i) out[column + i] = above[column + i] + sum + running[i];
-      sum += running[7];
+      sum = integrateByte(out + column, above + column, sum,
+                          static_cast<unsigned>((occupied * kGather) >> 56), 8);
     }
     for (; column < width; ++column) {
       sum += in[column] == CellState::kOccupied;

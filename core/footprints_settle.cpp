@@ -113,6 +113,7 @@ void FootprintDetector::settle() {
     keepPiecesNear(row, column, steps);
     std::size_t at = chosen_[i];
     double best = fit(at).gain;
+    double support = 0.0;  // at the best place, once it is another
     forEachNear(row, column, steps, [&](std::size_t n) {
       if (n == chosen_[i]) return;
       const Candidate& there = candidates_[n];
@@ -127,6 +128,7 @@ void FootprintDetector::settle() {
       if (f.cameras < settings_.min_cameras || f.support < settings_.min_support) return;
       if (f.gain > best) {
         best = f.gain;
+        support = f.support;
         at = n;
       }
     });
@@ -135,10 +137,8 @@ void FootprintDetector::settle() {
     const Candidate& settled = candidates_[at];
     detections_[i].x_m = settled.x_m;
     detections_[i].y_m = settled.y_m;
-    detections_[i].area_m2 =
-        occupiedWithin(cellsWithin(settled.x_m, settled.y_m, settings_.box_width_m / 2)) *
-        map_.cell_size_m * map_.cell_size_m;
-    detections_[i].score = fit(at).support;
+    detections_[i].area_m2 = footprintArea(settled);
+    detections_[i].score = support;
   }
 }
 
