@@ -45,6 +45,9 @@ struct Heard {
   std::vector<occmap::zones_t> zones;
   std::vector<occmap::tracks_t> tracks;
   std::size_t undecodable = 0;
+  // Maps fusion made that the publisher never sent, because it was still sending an older one
+  // (under a sanitizer it can fall behind). Zones are judged on every map fused, sent or not.
+  std::uint64_t maps_skipped = 0;
 };
 
 // Runs the pipeline on `config_text` until `maps` maps have arrived (or two minutes: the
@@ -91,6 +94,7 @@ void run(const std::string& config_text, std::size_t maps, Heard& heard) {
     std::lock_guard lock(heard.mutex);
     if (heard.maps.size() >= maps) break;
   }
+  heard.maps_skipped = pipeline.mapsSkipped();
   pipeline.stop();
   listener.stop();
 }
@@ -135,17 +139,26 @@ TEST(PipelineFootprints, EveryMapIsFollowedByItsZonesAsTheMapItselfGivesThem) {
       ASSERT_EQ(zone.state, state) << "map " << map.seq << ", zone " << zone.name;
       ++states_seen[zone.name + " " + std::to_string(zone.state)];
       // How long it has been so: 0 at a change, growing with the maps' time while it holds.
-      const bool changed = i == 0 || heard.zones[i - 1].zones[z].state != zone.state;
-      if (changed) {
-        EXPECT_EQ(zone.state_s, 0.0) << "map " << map.seq;
-      } else {
-        EXPECT_GT(zone.state_s, heard.zones[i - 1].zones[z].state_s) << "map " << map.seq;
+      // A map fused but not sent may have changed it in between: then only that it is a time.
+      EXPECT_GE(zone.state_s, 0.0) << "map " << map.seq;
+      EXPECT_TRUE(std::isfinite(zone.state_s)) << "map " << map.seq;
+      if (heard.maps_skipped == 0) {
+        const bool changed = i == 0 || heard.zones[i - 1].zones[z].state != zone.state;
+        if (changed) {
+          EXPECT_EQ(zone.state_s, 0.0) << "map " << map.seq;
+        } else {
+          EXPECT_GT(zone.state_s, heard.zones[i - 1].zones[z].state_s) << "map " << map.seq;
+        }
       }
     }
   }
   // People walk through the middle; the corner reaches past every camera's view.
   EXPECT_GT(states_seen["middle 1"], 0);
   EXPECT_GT(states_seen["corner 2"], 0);
+  if (heard.maps_skipped != 0) {
+    std::printf("%llu maps fused but not sent: state_s checked only as a time\n",
+                static_cast<unsigned long long>(heard.maps_skipped));
+  }
 }
 
 TEST(PipelineFootprints, TracksNameAMapThatWasSentAndFollowWhatStandsInTheRoom) {
