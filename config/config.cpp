@@ -45,9 +45,10 @@ constexpr std::string_view kTopKeys[] = {"map",     "cameras",    "fusion", "tra
                                          "control", "footprints", "zones"};
 constexpr std::string_view kZoneKeys[] = {"name", "polygon_m"};
 constexpr std::string_view kFootprintKeys[] = {
-    "box_width_m",     "box_height_m",       "step_m",           "min_support",
-    "min_fresh",       "min_separation_m",   "min_cameras",      "enabled",
-    "object_height_m", "object_min_support", "object_min_fresh", "settle_reach_m"};
+    "box_width_m",        "box_height_m",       "step_m",           "min_support",
+    "min_fresh",          "min_separation_m",   "min_cameras",      "enabled",
+    "object_height_m",    "object_min_support", "object_min_fresh", "settle_reach_m",
+    "hidden_floor_unseen"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
@@ -462,6 +463,8 @@ class ConfigReader {
         footprints.object_min_fresh = real(entry.value, 0.0, true, 1.0, "");
       } else if (entry.key == "settle_reach_m") {
         footprints.settle_reach_m = real(entry.value, 0.0, false, 5.0, " m");
+      } else if (entry.key == "hidden_floor_unseen") {
+        footprints.hidden_floor_unseen = boolean(entry.value);
       }
     }
     return footprints;

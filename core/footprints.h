@@ -75,6 +75,9 @@ struct FootprintSettings {
   // they move onto their own (EPFL Terrace's crowd: MODA 73.9 -> 79.5 %, precision 86.6 ->
   // 90.2 %, with the look at what each explains alone; docs/detection.md).
   double settle_reach_m = 0.5;
+  // Whether a zone whose occupied cells are all the floor hidden behind people found is UNSEEN
+  // rather than OCCUPIED (core/zones.h, core/hidden_floor.h); false: the map's cells alone decide.
+  bool hidden_floor_unseen = true;
 };
 
 struct Detection {

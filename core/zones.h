@@ -4,6 +4,9 @@
 // cannot vouch for the floor behind people either, so for a safety zone that counts), UNSEEN when
 // none is occupied but some cell is unseen, and FREE only when every cell is free. The time since
 // it last changed is kept; time is passed in with each map.
+// Given the cameras and the people found on the map, occupied cells that are only the floor
+// hidden behind someone found (core/hidden_floor.h) make a zone UNSEEN rather than OCCUPIED: what
+// stands there cannot be told, so it is never FREE either.
 // No I/O, no threads; nothing is allocated per map.
 
 #include <cstddef>
@@ -14,6 +17,9 @@
 
 #include <Eigen/Core>
 
+#include "core/camera.h"
+#include "core/footprints.h"
+#include "core/hidden_floor.h"
 #include "core/map_geometry.h"
 
 namespace occmap {
@@ -32,6 +38,8 @@ struct ZoneStatus {
   std::size_t cells = 0;   // whose centres lie inside the polygon
   std::size_t occupied_cells = 0;
   std::size_t unseen_cells = 0;
+  // Every occupied cell is floor hidden behind someone found (the state is then UNSEEN).
+  bool hidden_only = false;
 };
 
 // The map cells whose centres lie inside the polygon (even-odd rule).
@@ -42,9 +50,15 @@ class Zones {
  public:
   // Throws std::invalid_argument naming a zone with fewer than 3 corners or no cell of the map.
   Zones(const MapGeometry& map, std::span<const ZoneSpec> zones);
+  // With the cameras and the people's box (the detector's), update() can tell the floor hidden
+  // behind the people found from something standing in a zone.
+  Zones(const MapGeometry& map, std::span<const ZoneSpec> zones, std::span<const Camera> cameras,
+        const FootprintSettings& box, double column_height_m);
 
-  // One map, at time_s (seconds, not decreasing). Valid until the next call.
-  const std::vector<ZoneStatus>& update(std::span<const CellState> cells, double time_s);
+  // One map, at time_s (seconds, not decreasing), and the people found on it (or on a map just
+  // before: none, the map's cells alone decide). Valid until the next call.
+  const std::vector<ZoneStatus>& update(std::span<const CellState> cells, double time_s,
+                                        std::span<const Detection> found = {});
 
   std::size_t size() const { return cells_.size(); }
   std::span<const std::uint32_t> cells(std::size_t zone) const { return cells_[zone]; }
@@ -52,7 +66,15 @@ class Zones {
  private:
   std::size_t cell_count_;
   std::vector<std::vector<std::uint32_t>> cells_;
+  // Each zone's cells as runs along the map's rows: counted 8 cells at a time.
+  struct Run {
+    std::uint32_t first_cell;  // in the map
+    std::uint32_t count;
+    std::uint32_t first;  // its first cell's place in cells_[zone]
+  };
+  std::vector<std::vector<Run>> runs_;
   std::vector<ZoneStatus> status_;
+  std::vector<HiddenFloor> hidden_;  // per zone, with the cameras
   bool started_ = false;
 };
 

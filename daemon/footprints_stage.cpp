@@ -24,6 +24,12 @@ FootprintsFound FootprintsStage::emptyResult() {
   return found;
 }
 
+FootprintsStage::FoundForZones FootprintsStage::emptyFound() {
+  FoundForZones found;
+  found.footprints.reserve(64);
+  return found;
+}
+
 FootprintsStage::FootprintsStage(const MapGeometry& map, std::span<const Camera> cameras,
                                  const FootprintSettings& settings,
                                  std::span<const std::size_t> mask_bytes)
@@ -31,6 +37,7 @@ FootprintsStage::FootprintsStage(const MapGeometry& map, std::span<const Camera>
       offers_(emptyOffer(mask_bytes, map.cellCount()), emptyOffer(mask_bytes, map.cellCount()),
               emptyOffer(mask_bytes, map.cellCount())),
       results_(emptyResult(), emptyResult(), emptyResult()),
+      for_zones_(emptyFound(), emptyFound(), emptyFound()),
       masks_(mask_bytes.size(), nullptr) {}
 
 void FootprintsStage::offer(std::uint64_t fused, std::int64_t utime, double time_s,
@@ -82,6 +89,10 @@ bool FootprintsStage::findNewest() {
   out.footprints.assign(footprints.begin(), footprints.end());
   out.tracks.assign(tracks.begin(), tracks.end());
   results_.publish();
+  FoundForZones& for_zones = for_zones_.writeBuffer();
+  for_zones.time_s = offer.time_s;
+  for_zones.footprints.assign(footprints.begin(), footprints.end());
+  for_zones_.publish();
   return true;
 }
 

@@ -52,6 +52,14 @@ class FootprintsStage {
   const FootprintsFound* takeLatest() {
     return results_.takeLatest() ? &results_.readBuffer() : nullptr;
   }
+  // The fusion thread (the zones, core/zones.h): the people found on the newest map done, if it
+  // was fused no more than max_age_s before time_s (else none: people move on).
+  std::span<const Detection> foundFor(double time_s, double max_age_s) {
+    for_zones_.takeLatest();
+    const FoundForZones& found = for_zones_.readBuffer();
+    if (found.time_s < time_s - max_age_s) return {};
+    return found.footprints;
+  }
 
   // One round of the thread's: the people on the newest offer, handed to takeLatest(); false when
   // there was no new offer. Public for the benchmark (bench/footprints_bench.cpp), which runs the
@@ -69,11 +77,17 @@ class FootprintsStage {
   };
   static Offer emptyOffer(std::span<const std::size_t> mask_bytes, std::size_t cells);
   static FootprintsFound emptyResult();
+  struct FoundForZones {
+    double time_s = -1e300;  // the map's
+    std::vector<Detection> footprints;
+  };
+  static FoundForZones emptyFound();
 
   FootprintDetector detector_;
   Tracker tracker_;
   TripleBuffer<Offer> offers_;
   TripleBuffer<FootprintsFound> results_;
+  TripleBuffer<FoundForZones> for_zones_;
   std::vector<const std::uint8_t*> masks_;
   EventFd wakeup_;
   std::atomic<bool> stopping_{false};

@@ -103,12 +103,19 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
   changed_.assign(cameras, nullptr);
   footprint_masks_.assign(cameras, nullptr);
   generations_.assign(cameras, 0);
-  if (!config.zones.empty()) zones_.emplace(config.map, config.zones);
+  std::vector<occmap::Camera> posed;
+  for (const RigCamera& camera : prepared_.rig.cameras()) posed.push_back(*camera.camera);
+  if (!config.zones.empty()) {
+    if (config.footprints.enabled && config.footprints.hidden_floor_unseen) {
+      zones_.emplace(config.map, config.zones, posed, config.footprints,
+                     config.fusion.column_height_m);
+    } else {
+      zones_.emplace(config.map, config.zones);
+    }
+  }
   if (config.footprints.enabled) {
-    std::vector<occmap::Camera> posed;
     std::vector<std::size_t> mask_bytes;
     for (const RigCamera& camera : prepared_.rig.cameras()) {
-      posed.push_back(*camera.camera);
       mask_bytes.push_back(changedMaskBytes(camera.source->width(), camera.source->height()));
     }
     footprints_ =
@@ -580,7 +587,13 @@ void Pipeline::fuse(std::int64_t now) {
   out.fused = maps_fused_.load(std::memory_order_relaxed);  // fusion alone writes it
   out.time_s = static_cast<double>(now) * 1e-9;
   if (zones_) {
-    const std::vector<ZoneStatus>& zones = zones_->update(out.map.cells, out.time_s);
+    // The people found on a map just before this one (the footprints thread is a map or two
+    // behind): enough to tell the floor hidden behind them, not to be trusted once they are old.
+    constexpr double kFoundMaxAgeS = 0.1;
+    const std::span<const Detection> found = footprints_
+                                                 ? footprints_->foundFor(out.time_s, kFoundMaxAgeS)
+                                                 : std::span<const Detection>{};
+    const std::vector<ZoneStatus>& zones = zones_->update(out.map.cells, out.time_s, found);
     std::copy(zones.begin(), zones.end(), out.zones.begin());
   }
   if (maps_.publish()) maps_skipped_.fetch_add(1, std::memory_order_relaxed);

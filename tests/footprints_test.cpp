@@ -15,7 +15,7 @@
 
 #include "core/detection_score.h"
 #include "core/fusion_kernel.h"
-#include "core/tsai_camera.h"
+#include "corner_cameras.h"
 
 namespace occmap {
 namespace {
@@ -25,18 +25,7 @@ constexpr double kHeight = 1.75;  // as POM's box
 constexpr int kWidth = 320, kHeight_px = 240;
 
 Camera cornerCamera(const Eigen::Vector3d& position_m) {
-  TsaiParameters p;
-  p.width = kWidth;
-  p.height = kHeight_px;
-  p.ncx = p.nfx = p.width;
-  p.dx = p.dy = p.dpx = p.dpy = 0.01;
-  p.sx = 1.0;
-  p.focal = 0.7 * p.dpx * p.width;  // a horizontal field of view of about 71 degrees
-  p.kappa1 = 0.0;
-  p.cx = p.width / 2.0;
-  p.cy = p.height / 2.0;
-  p.setPose(poseLookingAt(position_m * 1000.0, Eigen::Vector3d(3000, 3000, 0)));
-  return Camera(std::make_shared<TsaiCamera>(p), LengthUnit::kMillimetre, kWidth, kHeight_px);
+  return testing::cornerCamera(position_m, kWidth, kHeight_px);
 }
 
 struct Room {

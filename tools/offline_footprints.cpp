@@ -8,6 +8,12 @@
 namespace occmap::tools {
 namespace {
 
+std::vector<Camera> posedCameras(const std::vector<RigCamera>& cameras) {
+  std::vector<Camera> posed;
+  for (const RigCamera& camera : cameras) posed.push_back(*camera.camera);
+  return posed;
+}
+
 void openCsv(std::ofstream& file, const std::string& path, const char* what, const char* header) {
   file.open(path);
   if (!file) throw InputError(path, 0, "--out", std::string("cannot write the ") + what + " here");
@@ -22,7 +28,12 @@ OfflineFootprints::OfflineFootprints(const Config& config, const std::vector<Rig
     : config_(config),
       detections_path_(detections_csv),
       tracks_path_(tracks_csv),
-      zones_(config.map, config.zones),
+      posed_(posedCameras(cameras)),
+      zones_(config.footprints.hidden_floor_unseen &&
+                     (!detections_csv.empty() || !tracks_csv.empty())
+                 ? Zones(config.map, config.zones, posed_, config.footprints,
+                         config.fusion.column_height_m)
+                 : Zones(config.map, config.zones)),
       zone_states_(zones_.size(), ZoneState::kUnseen),
       zone_tally_(zones_.size()) {
   if (!detections_csv.empty()) {
@@ -39,9 +50,20 @@ OfflineFootprints::OfflineFootprints(const Config& config, const std::vector<Rig
     frame_s_ = 1.0 / *config.cameras.front().fps;
   }
   if (detections_file_.is_open() || tracker_) {
-    std::vector<Camera> posed;
-    for (const RigCamera& camera : cameras) posed.push_back(*camera.camera);
-    detector_.emplace(config.map, posed, config.footprints);
+    detector_.emplace(config.map, posed_, config.footprints);
+  }
+  for (const Camera& camera : posed_) camera_centres_.push_back(camera.centreMetres());
+  for (std::size_t z = 0; z < zones_.size(); ++z) {
+    std::vector<std::uint8_t>& sights = zone_sights_.emplace_back();
+    for (const std::uint32_t cell : zones_.cells(z)) {
+      const Eigen::Vector2d p = config.map.cellCentre(std::size_t{cell});
+      for (const Camera& camera : posed_) {
+        const std::optional<Eigen::Vector2d> pixel = camera.worldToStream({p.x(), p.y(), 0.0});
+        sights.push_back(pixel && pixel->x() >= -0.5 && pixel->y() >= -0.5 &&
+                         pixel->x() < camera.streamWidth() - 0.5 &&
+                         pixel->y() < camera.streamHeight() - 0.5);
+      }
+    }
   }
 }
 
@@ -50,10 +72,12 @@ void OfflineFootprints::add(std::uint64_t map, std::span<const std::uint8_t* con
                             const std::vector<sim::SceneObject>* objects) {
   const double time_s = static_cast<double>(map) * frame_s_;
   found_.clear();
+  detected_.clear();
   followed_.clear();
   followed_ids_.clear();
   if (detector_) {
     const std::vector<Detection>& detected = detector_->detect(masks, cells);
+    detected_.assign(detected.begin(), detected.end());
     for (const Detection& d : detected) {
       found_.push_back({d.x_m, d.y_m});
       if (!detections_file_.is_open()) continue;
@@ -76,7 +100,7 @@ void OfflineFootprints::add(std::uint64_t map, std::span<const std::uint8_t* con
       }
     }
   }
-  const std::vector<ZoneStatus>& zones = zones_.update(cells, time_s);
+  const std::vector<ZoneStatus>& zones = zones_.update(cells, time_s, detected_);
   for (std::size_t z = 0; z < zones.size(); ++z) {
     ++zone_tally_[z].maps[static_cast<int>(zones[z].state)];
     zone_tally_[z].changes += map > 0 && zones[z].state != zone_states_[z] ? 1 : 0;
@@ -85,25 +109,49 @@ void OfflineFootprints::add(std::uint64_t map, std::span<const std::uint8_t* con
   if (objects != nullptr) scoreAgainst(*objects);
 }
 
+ZoneState OfflineFootprints::trueState(std::size_t zone,
+                                       const std::vector<sim::SceneObject>& objects) const {
+  const std::span<const std::uint32_t> cells = zones_.cells(zone);
+  for (const sim::SceneObject& object : objects) {
+    for (const std::uint32_t cell : cells) {
+      if (object.solid.footprintContains(config_.map.cellCentre(std::size_t{cell}))) {
+        return ZoneState::kOccupied;
+      }
+    }
+  }
+  // A camera vouches for a cell when nothing stands in the way of any ray through its column
+  // (up to the fusion's column_height_m): each such ray runs on to the floor beyond, and an
+  // object anywhere along it changes that pixel.
+  const double column = config_.fusion.column_height_m;
+  const double heights[4] = {0.0, column / 3, 2 * column / 3, column};
+  const int samples = column > 0 ? 4 : 1;
+  const std::size_t k_count = camera_centres_.size();
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    const Eigen::Vector2d p = config_.map.cellCentre(std::size_t{cells[i]});
+    bool seen = false;  // by some camera with nothing in the way
+    for (std::size_t k = 0; k < k_count && !seen; ++k) {
+      if (zone_sights_[zone][i * k_count + k] == 0) continue;
+      const Eigen::Vector3d& centre = camera_centres_[k];
+      bool blocked = false;
+      for (int h = 0; h < samples && !blocked; ++h) {
+        const Eigen::Vector3d direction = Eigen::Vector3d(p.x(), p.y(), heights[h]) - centre;
+        const double to_floor = -centre.z() / direction.z();  // the ray's t at z = 0
+        for (std::size_t o = 0; o < objects.size() && !blocked; ++o) {
+          blocked = objects[o].solid.intersect(centre, direction, 0.0, to_floor).has_value();
+        }
+      }
+      seen = !blocked;
+    }
+    if (!seen) return ZoneState::kUnseen;
+  }
+  return ZoneState::kFree;
+}
+
 void OfflineFootprints::scoreAgainst(const std::vector<sim::SceneObject>& objects) {
   scored_ = true;
   for (std::size_t z = 0; z < zones_.size(); ++z) {
-    bool object_there = false;
-    for (const sim::SceneObject& object : objects) {
-      for (const std::uint32_t cell : zones_.cells(z)) {
-        if (object.solid.footprintContains(config_.map.cellCentre(std::size_t{cell}))) {
-          object_there = true;
-          break;
-        }
-      }
-      if (object_there) break;
-    }
-    const ZoneState state = zone_states_[z];
-    zone_tally_[z].free_over_object += object_there && state == ZoneState::kFree ? 1 : 0;
-    if (state != ZoneState::kUnseen) {
-      ++zone_tally_[z].judged;
-      zone_tally_[z].right += object_there == (state == ZoneState::kOccupied) ? 1 : 0;
-    }
+    const ZoneState truth = trueState(z, objects);
+    ++zone_tally_[z].against[static_cast<int>(truth)][static_cast<int>(zone_states_[z])];
   }
   if (!detector_) return;
   people_.clear();
@@ -189,10 +237,22 @@ void OfflineFootprints::printZones() const {
                 static_cast<unsigned long long>(t.maps[2]),
                 static_cast<unsigned long long>(t.changes));
     if (scored_) {
+      const auto& a = t.against;
+      const std::uint64_t maps = t.maps[0] + t.maps[1] + t.maps[2];
+      const auto kFree = static_cast<int>(ZoneState::kFree);
+      const auto kOccupied = static_cast<int>(ZoneState::kOccupied);
+      const auto kUnseen = static_cast<int>(ZoneState::kUnseen);
       std::printf(
-          "; against the simulator's objects: right in %.2f %% of the maps where it is "
-          "seen, free while an object stands in it in %llu maps",
-          percent(t.right, t.judged), static_cast<unsigned long long>(t.free_over_object));
+          "; against the simulator's objects and what the cameras could see: right in %.2f %% "
+          "of the maps, free while an object stands in it in %llu, occupied while nothing does "
+          "in %llu (%llu of them with floor hidden), unseen while it is all in view in %llu "
+          "(%llu of them with an object in it)",
+          percent(a[0][0] + a[1][1] + a[2][2], maps),
+          static_cast<unsigned long long>(a[kOccupied][kFree]),
+          static_cast<unsigned long long>(a[kFree][kOccupied] + a[kUnseen][kOccupied]),
+          static_cast<unsigned long long>(a[kUnseen][kOccupied]),
+          static_cast<unsigned long long>(a[kFree][kUnseen] + a[kOccupied][kUnseen]),
+          static_cast<unsigned long long>(a[kOccupied][kUnseen]));
     }
     std::printf("\n");
   }

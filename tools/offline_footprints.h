@@ -43,9 +43,13 @@ class OfflineFootprints {
   struct ZoneTally {
     std::uint64_t maps[3] = {0, 0, 0};  // by ZoneState
     std::uint64_t changes = 0;
-    std::uint64_t right = 0, judged = 0;  // against the scene's objects, where not unseen
-    std::uint64_t free_over_object = 0;
+    // Against the scene: [true state][state given], by ZoneState.
+    std::uint64_t against[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
   };
+  // The zone's true state: occupied when an object's footprint holds one of its cell centres;
+  // else unseen when a cell is in no camera's image, or every camera that has it sees an object
+  // in front of it; else free.
+  ZoneState trueState(std::size_t zone, const std::vector<sim::SceneObject>& objects) const;
   void scoreAgainst(const std::vector<sim::SceneObject>& objects);
 
   const Config& config_;
@@ -57,13 +61,18 @@ class OfflineFootprints {
   double frame_s_ = 1.0 / 30.0;
   std::optional<FootprintDetector> detector_;
   std::optional<Tracker> tracker_;
+  std::vector<Camera> posed_;
   Zones zones_;
+  // Per zone, cells x cameras: 1 where the camera's image has the cell's centre.
+  std::vector<std::vector<std::uint8_t>> zone_sights_;
+  std::vector<Eigen::Vector3d> camera_centres_;
   std::vector<ZoneState> zone_states_;
   std::vector<ZoneTally> zone_tally_;
   bool scored_ = false;  // whether any map had the scene's objects
   std::uint64_t detections_ = 0, track_rows_ = 0;
   // This frame set's detections and tracks, and the scene's objects (people among them).
   std::vector<FloorPoint> found_, followed_, people_, things_;
+  std::vector<Detection> detected_;
   std::vector<std::int64_t> followed_ids_, thing_ids_;
   DetectionScorer people_score_, object_score_;
   // Each kind of object alone against every detection: how many of each are found.

@@ -1,0 +1,59 @@
+#pragma once
+// The floor hidden behind the people found (issue 14, docs/detection.md "Zones"): a map cell is
+// occupied when every camera that sees it sees something changed on its column (the floor point
+// and, with column carving, the column up to column_height_m above it), which is as true of the
+// floor behind a person, or just in front of one, as of a person. Once people are found, the
+// first can be told: a cell is hidden when, in every camera that sees it, its column's pixels
+// meet the box of someone found whose footprint does not hold it. Nothing can be said of what
+// stands there, so a zone whose occupied cells are all hidden is unseen, never free
+// (core/zones.h).
+// No I/O, no threads; nothing is allocated per map once the people found have their largest count.
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/footprints.h"
+#include "core/map_geometry.h"
+
+namespace occmap {
+
+class HiddenFloor {
+ public:
+  // `cells`: the map cells that will be asked about (a zone's); `settings`: the people's box, as
+  // the detector's (box_width_m, box_height_m); `column_height_m`: the fusion's (0: the floor).
+  HiddenFloor(const MapGeometry& map, std::span<const std::uint32_t> cells,
+              std::span<const Camera> cameras, const FootprintSettings& settings,
+              double column_height_m);
+
+  // The people found on the map asked about next (each with the height of the box it was found
+  // with; 0: a person's).
+  void setFound(std::span<const Detection> found);
+  // Whether cells[i] is hidden behind the people found in every camera that sees it (false when
+  // no camera sees it).
+  bool hidden(std::size_t i) const;
+  // Whether camera k has cells[i]'s centre in its image.
+  bool seen(std::size_t i, std::size_t k) const { return sights_[i * cameras_ + k].seen(); }
+  std::size_t cameras() const { return cameras_; }
+
+  // A rectangle of pixels: the one holding a cell's column in a camera, or a person's box;
+  // u0 > u1 where it is not in view.
+  struct Rectangle {
+    float u0, v0, u1, v1;
+    bool seen() const { return u0 <= u1; }
+  };
+
+ private:
+  std::vector<Camera> camera_list_;
+  std::vector<Eigen::Vector2d> below_;  // each camera's centre on the floor
+  std::size_t cameras_;
+  FootprintSettings box_;
+  std::vector<Eigen::Vector2f> centres_;  // the cells'
+  std::vector<Rectangle> sights_;         // cells x cameras
+  std::vector<Rectangle> shadows_;        // found x cameras
+  std::vector<Eigen::Vector2f> found_at_;
+};
+
+}  // namespace occmap
