@@ -214,6 +214,9 @@ std::string zoneLine(const occmap::zones_t& zones, std::size_t z) {
       formatText("zone %-*s  %s for %s (%d of %d cells occupied", width, zone.name.c_str(),
                  states[zone.state], how_long.c_str(), zone.occupied_cells, zone.cells);
   if (zone.unseen_cells != 0) line += formatText(", %d unseen", zone.unseen_cells);
+  if (zone.state == occmap::zone_t::UNSEEN && zone.occupied_cells > 0) {
+    line += ", all floor hidden behind people found";
+  }
   return line + ")\n";
 }
 

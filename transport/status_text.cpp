@@ -119,6 +119,11 @@ std::string formatZones(const occmap::zones_t& z) {
                        zoneStateText(zone.state).c_str(), duration(zone.state_s).c_str(),
                        zone.occupied_cells, zone.cells);
     if (zone.unseen_cells != 0) text += formatText(", %d unseen", zone.unseen_cells);
+    // Unseen with occupied cells: occmapd found every one of them to be floor hidden behind
+    // people found (core/hidden_floor.h).
+    if (zone.state == occmap::zone_t::UNSEEN && zone.occupied_cells > 0) {
+      text += ", all floor hidden behind people found";
+    }
     text += ")\n";
   }
   return text;
