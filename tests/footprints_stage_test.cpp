@@ -14,16 +14,8 @@ namespace occmap {
 namespace {
 
 TEST(FootprintsStage, GivesTheZonesThePeopleFoundOnTheNewestMapWhileTheyAreFresh) {
-  MapGeometry map;
-  map.origin_x_m = 0.0;
-  map.origin_y_m = 0.0;
-  map.cell_size_m = 0.05;
-  map.width = 120;
-  map.height = 120;
-  std::vector<Camera> cameras;
-  for (const auto& [x, y] : {std::pair{-0.5, -0.5}, {6.5, -0.5}, {6.5, 6.5}, {-0.5, 6.5}}) {
-    cameras.push_back(testing::cornerCamera({x, y, 3.0}));
-  }
+  const MapGeometry map = testing::cornerRoomMap();
+  const std::vector<Camera> cameras = testing::cornerRoomCameras();
   const std::size_t bytes = changedMaskBytes(320, 240);
   const std::vector<std::size_t> mask_bytes(cameras.size(), bytes);
   FootprintsStage stage(map, cameras, FootprintSettings{}, mask_bytes);

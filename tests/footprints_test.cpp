@@ -24,23 +24,9 @@ constexpr double kRadius = 0.2;   // a person's, on the floor
 constexpr double kHeight = 1.75;  // as POM's box
 constexpr int kWidth = 320, kHeight_px = 240;
 
-Camera cornerCamera(const Eigen::Vector3d& position_m) {
-  return testing::cornerCamera(position_m, kWidth, kHeight_px);
-}
-
 struct Room {
-  MapGeometry map;
-  std::vector<Camera> cameras;
-  Room() {
-    map.origin_x_m = 0.0;
-    map.origin_y_m = 0.0;
-    map.cell_size_m = 0.05;
-    map.width = 120;
-    map.height = 120;
-    for (const auto& [x, y] : {std::pair{-0.5, -0.5}, {6.5, -0.5}, {6.5, 6.5}, {-0.5, 6.5}}) {
-      cameras.push_back(cornerCamera({x, y, 3.0}));
-    }
-  }
+  MapGeometry map = testing::cornerRoomMap();
+  std::vector<Camera> cameras = testing::cornerRoomCameras(kWidth, kHeight_px);
 };
 
 // Camera k's changed pixels: those whose ray passes through a person's cylinder.

@@ -91,17 +91,12 @@ TEST(Zones, CountEveryCellOfAnyShapeAsTheCellsInsideSay) {
 // One camera at a corner of a 6 x 6 m floor, 3 m up; a person found at (2, 2), 2.8 m across the
 // floor from below it, so that the floor straight behind them lies in their box.
 struct HiddenRoom {
-  MapGeometry map;
+  MapGeometry map = testing::cornerRoomMap();
   std::vector<Camera> cameras;
   FootprintSettings box;  // 0.5 x 1.75 m
   Eigen::Vector2d person{2.0, 2.0};
   Eigen::Vector2d away;  // unit vector, from below the camera through the person
   HiddenRoom() {
-    map.origin_x_m = 0.0;
-    map.origin_y_m = 0.0;
-    map.cell_size_m = 0.05;
-    map.width = 120;
-    map.height = 120;
     cameras.push_back(testing::cornerCamera({0.0, 0.0, 3.0}));
     away = person.normalized();
   }
