@@ -76,8 +76,9 @@ struct FootprintSettings {
   // 90.2 %, with the look at what each explains alone; docs/detection.md).
   double settle_reach_m = 0.5;
   // Whether a zone whose occupied cells are all the floor hidden behind people found is UNSEEN
-  // rather than OCCUPIED (core/zones.h, core/hidden_floor.h); false: the map's cells alone decide.
-  bool hidden_floor_unseen = true;
+  // rather than OCCUPIED (core/zones.h, core/hidden_floor.h). Off by default: a zone's state is
+  // then the map's cells' alone, as the issue defines it (occupied when any cell is).
+  bool hidden_floor_unseen = false;
 };
 
 struct Detection {

@@ -99,16 +99,20 @@ void run(const std::string& config_text, std::size_t maps, Heard& heard) {
   listener.stop();
 }
 
-TEST(PipelineFootprints, EveryMapIsFollowedByItsZonesAsTheMapItselfGivesThem) {
+// Runs the room with `extra` in its config and checks every map's zones_t against the map. With
+// `hidden_floor_unseen`, a zone the map says is occupied may be unseen instead (all its occupied
+// cells floor hidden behind people found), never free; else its state is the map's exactly.
+void checkZonesAgainstTheirMaps(const std::string& extra, bool hidden_floor_unseen) {
   Heard heard;
-  run(testing::simRoomConfig("memq://", "", "0.3") + kZones, 60, heard);
+  const std::string text = testing::simRoomConfig("memq://", "", "0.3") + extra + kZones;
+  run(text, 60, heard);
   ASSERT_EQ(heard.undecodable, 0u);
   ASSERT_GE(heard.maps.size(), 60u);
   // In process nothing is lost: one zones_t per map, in the same order, with its seq and utime.
   ASSERT_EQ(heard.zones.size(), heard.maps.size());
   const TemporaryFolder folder;
-  const Config config =
-      loadConfig(folder.write("room.yaml", testing::simRoomConfig("memq://", "", "0.3") + kZones));
+  const Config config = loadConfig(folder.write("room.yaml", text));
+  ASSERT_EQ(config.footprints.hidden_floor_unseen, hidden_floor_unseen);
   std::vector<std::vector<std::uint32_t>> cells;
   for (const ZoneSpec& zone : config.zones)
     cells.push_back(cellsInside(config.map, zone.polygon_m));
@@ -137,9 +141,8 @@ TEST(PipelineFootprints, EveryMapIsFollowedByItsZonesAsTheMapItselfGivesThem) {
       const std::int8_t state = occupied > 0 ? occmap::zone_t::OCCUPIED
                                 : unseen > 0 ? occmap::zone_t::UNSEEN
                                              : occmap::zone_t::FREE;
-      // Or, with people found, unseen where every occupied cell is floor hidden behind them
-      // (core/hidden_floor.h): never free while a cell is occupied.
-      const bool hidden = state == occmap::zone_t::OCCUPIED && zone.state == occmap::zone_t::UNSEEN;
+      const bool hidden = hidden_floor_unseen && state == occmap::zone_t::OCCUPIED &&
+                          zone.state == occmap::zone_t::UNSEEN;
       hidden_maps += hidden ? 1 : 0;
       if (!hidden) {
         ASSERT_EQ(zone.state, state) << "map " << map.seq << ", zone " << zone.name;
@@ -167,6 +170,14 @@ TEST(PipelineFootprints, EveryMapIsFollowedByItsZonesAsTheMapItselfGivesThem) {
     std::printf("%llu maps fused but not sent: state_s checked only as a time\n",
                 static_cast<unsigned long long>(heard.maps_skipped));
   }
+}
+
+TEST(PipelineFootprints, EveryMapIsFollowedByItsZonesAsTheMapItselfGivesThem) {
+  checkZonesAgainstTheirMaps("", false);
+}
+
+TEST(PipelineFootprints, ZonesMayCallTheFloorHiddenBehindPeopleFoundUnseenWhenAskedTo) {
+  checkZonesAgainstTheirMaps("footprints: {hidden_floor_unseen: true}\n", true);
 }
 
 TEST(PipelineFootprints, TracksNameAMapThatWasSentAndFollowWhatStandsInTheRoom) {

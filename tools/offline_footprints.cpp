@@ -245,7 +245,8 @@ void OfflineFootprints::printZones() const {
       std::printf(
           "; against the simulator's objects and what the cameras could see: right in %.2f %% "
           "of the maps, free while an object stands in it in %llu, occupied while nothing does "
-          "in %llu (%llu of them with floor hidden), unseen while it is all in view in %llu "
+          "in %llu (%llu of them with floor hidden), unseen while it is all in view or something "
+          "stands in it in %llu "
           "(%llu of them with an object in it)",
           percent(a[0][0] + a[1][1] + a[2][2], maps),
           static_cast<unsigned long long>(a[kOccupied][kFree]),
