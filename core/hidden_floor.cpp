@@ -35,6 +35,10 @@ HiddenFloor::HiddenFloor(const MapGeometry& map, std::span<const std::uint32_t> 
     const Eigen::Vector3d centre = camera.centreMetres();
     below_.emplace_back(centre.x(), centre.y());
   }
+  // Room for a crowd found, so that the usual map allocates nothing.
+  constexpr std::size_t kRoom = 64;
+  found_at_.reserve(kRoom);
+  shadows_.reserve(kRoom * cameras_);
   centres_.reserve(cells.size());
   sights_.reserve(cells.size() * cameras_);
   for (const std::uint32_t cell : cells) {
