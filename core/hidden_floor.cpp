@@ -86,14 +86,16 @@ void HiddenFloor::setFound(std::span<const Detection> found) {
 }
 
 bool HiddenFloor::hidden(std::size_t i) const {
-  // A person's own footprint is theirs: a cell within half the box's width of them is not
-  // hidden by them, however their box covers it.
+  // A person's own footprint is theirs: a cell within half the box's width of someone found is
+  // not hidden, however others' boxes cover it. Up to a whole box's width it is the edge of their
+  // blob on the map: something stands there, but it is them.
   const float reach = static_cast<float>(box_.box_width_m / 2);
   const Eigen::Vector2f& at = centres_[i];
   float nearest = std::numeric_limits<float>::infinity();
   for (const Eigen::Vector2f& p : found_at_) nearest = std::min(nearest, (at - p).squaredNorm());
   if (nearest <= reach * reach) return false;
   if (nearest <= 4 * reach * reach) return true;
+  // Farther from everyone: hidden when every camera that sees it has someone found in the way.
   bool seen_at_all = false;
   for (std::size_t k = 0; k < cameras_; ++k) {
     const Rectangle& sight = sights_[i * cameras_ + k];
@@ -102,8 +104,7 @@ bool HiddenFloor::hidden(std::size_t i) const {
     bool behind = false;
     for (std::size_t p = 0; p < found_at_.size() && !behind; ++p) {
       const Rectangle& s = shadows_[p * cameras_ + k];
-      behind = sight.u0 <= s.u1 && s.u0 <= sight.u1 && sight.v0 <= s.v1 && s.v0 <= sight.v1 &&
-               (at - found_at_[p]).squaredNorm() > reach * reach;
+      behind = sight.u0 <= s.u1 && s.u0 <= sight.u1 && sight.v0 <= s.v1 && s.v0 <= sight.v1;
     }
     if (!behind) return false;
   }

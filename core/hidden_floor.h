@@ -3,10 +3,12 @@
 // occupied when every camera that sees it sees something changed on its column (the floor point
 // and, with column carving, the column up to column_height_m above it), which is as true of the
 // floor behind a person, or just in front of one, as of a person. Once people are found, the
-// first can be told: a cell is hidden when, in every camera that sees it, its column's pixels
-// meet the box of someone found whose footprint does not hold it. Nothing can be said of what
-// stands there, so a zone whose occupied cells are all hidden is unseen, never free
-// (core/zones.h).
+// first can be told. A cell within half a box's width of someone found is theirs (never hidden);
+// one just past that, within a box's width, is the edge of their blob on the map (the carving's
+// column, cameras a frame apart, where they were found); and any other is hidden when, in every
+// camera that sees it, its column's pixels meet the box of someone found. Nothing can be said of
+// what stands there, so a zone whose occupied cells are all hidden is unseen, never free
+// (core/zones.h, with footprints.hidden_floor_unseen).
 // No I/O, no threads; nothing is allocated per map once the people found have their largest count.
 
 #include <cstddef>
@@ -31,8 +33,8 @@ class HiddenFloor {
   // The people found on the map asked about next (each with the height of the box it was found
   // with; 0: a person's).
   void setFound(std::span<const Detection> found);
-  // Whether cells[i] is hidden behind the people found in every camera that sees it (false when
-  // no camera sees it).
+  // Whether cells[i] is hidden behind the people found in every camera that sees it, or just
+  // past someone found (false when no camera sees it, or someone found stands on it).
   bool hidden(std::size_t i) const;
   // Whether camera k has cells[i]'s centre in its image.
   bool seen(std::size_t i, std::size_t k) const { return sights_[i * cameras_ + k].seen(); }
