@@ -56,6 +56,30 @@ std::uint32_t integrateByte(std::uint32_t* out, const std::uint32_t* above, std:
 
 }  // namespace
 
+std::optional<PixelRectangle> boardInImage(const Camera& camera, const Eigen::Vector2d& below,
+                                           const Eigen::Vector2d& at, double width_m,
+                                           double height_m) {
+  const Eigen::Vector2d to = at - below;
+  const double distance = to.norm();
+  if (!(distance > 1e-9)) return std::nullopt;
+  const Eigen::Vector2d across = Eigen::Vector2d(-to.y(), to.x()) * (width_m / 2 / distance);
+  PixelRectangle r{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                   -std::numeric_limits<double>::infinity(),
+                   -std::numeric_limits<double>::infinity()};
+  for (int corner = 0; corner < 4; ++corner) {
+    const double side = (corner & 1) != 0 ? 1.0 : -1.0;
+    const std::optional<Eigen::Vector2d> pixel =
+        camera.worldToStream({at.x() + side * across.x(), at.y() + side * across.y(),
+                              (corner & 2) != 0 ? height_m : 0.0});
+    if (!pixel) return std::nullopt;
+    r.u0 = std::min(r.u0, pixel->x());
+    r.u1 = std::max(r.u1, pixel->x());
+    r.v0 = std::min(r.v0, pixel->y());
+    r.v1 = std::max(r.v1, pixel->y());
+  }
+  return r;
+}
+
 FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Camera> cameras,
                                      const FootprintSettings& settings)
     : map_(map), settings_(settings) {
@@ -66,7 +90,6 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   step_ = step;
   const double map_width_m = map.width * map.cell_size_m;
   const double map_height_m = map.height * map.cell_size_m;
-  const double half = settings.box_width_m / 2;
   planes_.resize(cameras.size());
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     CameraPlane& plane = planes_[k];
@@ -80,8 +103,8 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   // the camera does not see the place), before the blocks are chosen.
   std::vector<std::array<double, 4>> pixel_boxes;
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  std::vector<Eigen::Vector3d> centres;
-  for (const Camera& camera : cameras) centres.push_back(camera.centreMetres());
+  std::vector<Eigen::Vector2d> below;  // each camera's centre on the floor
+  for (const Camera& camera : cameras) below.push_back(camera.centreMetres().head<2>());
   // People's boxes first, then (object_height_m > 0) the low boxes of what stands lower.
   const double heights[2] = {settings.box_height_m, settings.object_height_m};
   for (int tier = 0; tier < 2; ++tier) {
@@ -106,35 +129,14 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
         for (std::size_t k = 0; k < cameras.size(); ++k) {
           const Camera& camera = cameras[k];
           std::array<double, 4> pixel_box{kNaN, kNaN, kNaN, kNaN};
-          const int w = camera.streamWidth(), h = camera.streamHeight();
-          // A person's box as the camera sees it: the upright rectangle, box_width_m wide and
-          // box_height_m tall, standing at the place and facing the camera (the rectangle bounding
-          // a 3D box's corners is up to 1.4 times wider than any person seen from an angle).
-          const Eigen::Vector3d& centre = centres[k];
-          Eigen::Vector2d across(y - centre.y(), centre.x() - x);  // across the line of sight
-          const double length = across.norm();
+          // A person's box as the camera sees it, where the camera has the place's foot point.
           const std::optional<Eigen::Vector2d> foot = camera.worldToStream({x, y, 0.0});
-          bool whole = length > 1e-9 && foot && foot->x() >= -0.5 && foot->y() >= -0.5 &&
-                       foot->x() < w - 0.5 && foot->y() < h - 0.5;
-          if (whole) across *= half / length;
-          double u_min = std::numeric_limits<double>::infinity(), v_min = u_min;
-          double u_max = -u_min, v_max = -u_min;
-          for (int corner = 0; corner < 4 && whole; ++corner) {
-            const double side = (corner & 1) != 0 ? 1.0 : -1.0;
-            const Eigen::Vector3d point(x + side * across.x(), y + side * across.y(),
-                                        (corner & 2) != 0 ? box_height : 0.0);
-            const std::optional<Eigen::Vector2d> pixel = camera.worldToStream(point);
-            if (!pixel) {
-              whole = false;
-              break;
-            }
-            u_min = std::min(u_min, pixel->x());
-            u_max = std::max(u_max, pixel->x());
-            v_min = std::min(v_min, pixel->y());
-            v_max = std::max(v_max, pixel->y());
-          }
-          if (whole) {
-            pixel_box = {u_min, v_min, u_max, v_max};
+          const std::optional<PixelRectangle> board =
+              foot && camera.pixelIndexAt(*foot)
+                  ? boardInImage(camera, below[k], {x, y}, settings.box_width_m, box_height)
+                  : std::nullopt;
+          if (board) {
+            pixel_box = {board->u0, board->v0, board->u1, board->v1};
             any = true;
           }
           pixel_boxes.push_back(pixel_box);
@@ -276,16 +278,7 @@ FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c, double ve
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     const Box& box = boxes_[candidate.boxes + k];
     if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
-    const CameraPlane& plane = planes_[k];
-    // The changed pixels of the box that the people found cover: their boxes' union is kept as
-    // disjoint pieces, so each piece's overlap counts once.
-    double explained = 0.0;
-    for (const Box& piece : plane.pieces) {
-      const int u0 = std::max(box.u0, piece.u0), u1 = std::min(box.u1, piece.u1);
-      const int v0 = std::max(box.v0, piece.v0), v1 = std::min(box.v1, piece.v1);
-      if (u0 < u1 && v0 < v1)
-        explained += rectangleSum(plane.changed, plane.across, u0, v0, u1, v1);
-    }
+    const double explained = piecesIn<false>(planes_[k], box).changed;
     fresh += (box_changed_[k] - explained) / static_cast<double>(box.pixels);
   }
   e.fresh = fresh / e.cameras;

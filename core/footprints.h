@@ -27,12 +27,17 @@
 // No I/O, no threads; buffers are made once, nothing is allocated per frame set once the
 // detections have their largest count.
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "core/camera.h"
+#include "core/integral_image.h"
 #include "core/map_geometry.h"
 
 namespace occmap {
@@ -89,6 +94,19 @@ struct Detection {
   double height_m = 0.0;  // the box it was found with: a person's, or a low object's
 };
 
+// A rectangle of stream pixels, its corners' coordinates included.
+struct PixelRectangle {
+  double u0, v0, u1, v1;
+};
+
+// The rectangle holding, in the camera's image, an upright board width_m wide and height_m tall
+// standing on the floor at `at` and facing the camera (POM's person: the rectangle bounding a 3D
+// box's corners is up to 1.4 times wider than any person seen from an angle). `below`: the
+// camera's centre on the floor. Empty when a corner has no pixel, or the camera is right above.
+std::optional<PixelRectangle> boardInImage(const Camera& camera, const Eigen::Vector2d& below,
+                                           const Eigen::Vector2d& at, double width_m,
+                                           double height_m);
+
 class FootprintDetector {
  public:
   FootprintDetector(const MapGeometry& map, std::span<const Camera> cameras,
@@ -124,6 +142,26 @@ class FootprintDetector {
     int row0, column0, row1, column1;
   };
   static void integratePixels(CameraPlane& plane, const std::uint8_t* changed);
+  // The changed pixels of `box` that the people found cover (their boxes' union is kept as
+  // disjoint pieces, so each piece's overlap counts once), and with kBlocks the blocks those
+  // pieces cover (the greedy's evidence() needs only the first, and is the detector's hot loop).
+  struct Overlap {
+    double changed = 0.0;
+    double blocks = 0.0;
+  };
+  template <bool kBlocks>
+  static Overlap piecesIn(const CameraPlane& plane, const Box& box) {
+    Overlap overlap;
+    for (const Box& piece : plane.pieces) {
+      const int u0 = std::max(box.u0, piece.u0), u1 = std::min(box.u1, piece.u1);
+      const int v0 = std::max(box.v0, piece.v0), v1 = std::min(box.v1, piece.v1);
+      if (u0 < u1 && v0 < v1) {
+        overlap.changed += rectangleSum(plane.changed, plane.across, u0, v0, u1, v1);
+        if constexpr (kBlocks) overlap.blocks += static_cast<double>((u1 - u0) * (v1 - v0));
+      }
+    }
+    return overlap;
+  }
   void integrateOccupied(std::span<const CellState> cells);
   CellRange cellsWithin(double x_m, double y_m, double reach_m) const;
   std::uint32_t occupiedWithin(const CellRange& range) const;

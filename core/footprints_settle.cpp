@@ -28,18 +28,10 @@ FootprintDetector::Fit FootprintDetector::fit(std::size_t c) const {
     const double pixels = static_cast<double>(box.pixels);
     const double changed =
         rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
-    double explained = 0.0, covered = 0.0;
-    for (const Box& piece : plane.pieces) {
-      const int u0 = std::max(box.u0, piece.u0), u1 = std::min(box.u1, piece.u1);
-      const int v0 = std::max(box.v0, piece.v0), v1 = std::min(box.v1, piece.v1);
-      if (u0 < u1 && v0 < v1) {
-        explained += rectangleSum(plane.changed, plane.across, u0, v0, u1, v1);
-        covered += static_cast<double>((u1 - u0) * (v1 - v0));
-      }
-    }
+    const Overlap explained = piecesIn<true>(plane, box);
     // Blocks to pixels (a box at the image's edge may hold fewer than its blocks).
-    covered = std::min(pixels, covered * plane.block * plane.block);
-    const double fresh = changed - explained, open = pixels - covered;
+    const double covered = std::min(pixels, explained.blocks * plane.block * plane.block);
+    const double fresh = changed - explained.changed, open = pixels - covered;
     ++f.cameras;
     f.support = std::min(f.support, changed / pixels);
     f.gain += (fresh - lambda * std::max(0.0, open - fresh)) / pixels;

@@ -10,31 +10,13 @@ namespace {
 constexpr float kInfinity = std::numeric_limits<float>::infinity();
 constexpr HiddenFloor::Rectangle kNotInView{kInfinity, kInfinity, -kInfinity, -kInfinity};
 
-// The rectangle holding the points' pixels, or kNotInView when one has none.
-template <std::size_t N>
-HiddenFloor::Rectangle rectangleOf(const Camera& camera, const Eigen::Vector3d (&points)[N]) {
-  HiddenFloor::Rectangle r = {kInfinity, kInfinity, -kInfinity, -kInfinity};
-  for (const Eigen::Vector3d& point : points) {
-    const std::optional<Eigen::Vector2d> pixel = camera.worldToStream(point);
-    if (!pixel) return kNotInView;
-    r.u0 = std::min(r.u0, static_cast<float>(pixel->x()));
-    r.u1 = std::max(r.u1, static_cast<float>(pixel->x()));
-    r.v0 = std::min(r.v0, static_cast<float>(pixel->y()));
-    r.v1 = std::max(r.v1, static_cast<float>(pixel->y()));
-  }
-  return r;
-}
-
 }  // namespace
 
 HiddenFloor::HiddenFloor(const MapGeometry& map, std::span<const std::uint32_t> cells,
                          std::span<const Camera> cameras, const FootprintSettings& settings,
                          double column_height_m)
     : camera_list_(cameras.begin(), cameras.end()), cameras_(cameras.size()), box_(settings) {
-  for (const Camera& camera : cameras) {
-    const Eigen::Vector3d centre = camera.centreMetres();
-    below_.emplace_back(centre.x(), centre.y());
-  }
+  for (const Camera& camera : cameras) below_.push_back(camera.centreMetres().head<2>());
   // Room for a crowd found, so that the usual map allocates nothing.
   constexpr std::size_t kRoom = 64;
   found_at_.reserve(kRoom);
@@ -47,13 +29,17 @@ HiddenFloor::HiddenFloor(const MapGeometry& map, std::span<const std::uint32_t> 
     for (const Camera& camera : camera_list_) {
       // The cell is in view when its centre's floor point is in the image (as the map's tables
       // have it); its column's pixels then run from there to the top of the column.
-      const Eigen::Vector3d column[2] = {{p.x(), p.y(), 0.0}, {p.x(), p.y(), column_height_m}};
-      const Rectangle sight = rectangleOf(camera, column);
-      const std::optional<Eigen::Vector2d> foot = camera.worldToStream(column[0]);
-      const bool foot_in = foot && foot->x() >= -0.5 && foot->y() >= -0.5 &&
-                           foot->x() < camera.streamWidth() - 0.5 &&
-                           foot->y() < camera.streamHeight() - 0.5;
-      sights_.push_back(foot_in ? sight : kNotInView);
+      const std::optional<Eigen::Vector2d> foot = camera.worldToStream({p.x(), p.y(), 0.0});
+      const std::optional<Eigen::Vector2d> top =
+          camera.worldToStream({p.x(), p.y(), column_height_m});
+      if (!foot || !top || !camera.pixelIndexAt(*foot)) {
+        sights_.push_back(kNotInView);
+        continue;
+      }
+      sights_.push_back({static_cast<float>(std::min(foot->x(), top->x())),
+                         static_cast<float>(std::min(foot->y(), top->y())),
+                         static_cast<float>(std::max(foot->x(), top->x())),
+                         static_cast<float>(std::max(foot->y(), top->y()))});
     }
   }
 }
@@ -61,26 +47,19 @@ HiddenFloor::HiddenFloor(const MapGeometry& map, std::span<const std::uint32_t> 
 void HiddenFloor::setFound(std::span<const Detection> found) {
   found_at_.resize(found.size());
   shadows_.resize(found.size() * cameras_);
-  const double half = box_.box_width_m / 2;
   for (std::size_t p = 0; p < found.size(); ++p) {
     const Detection& person = found[p];
-    const double height = person.height_m > 0 ? person.height_m : box_.box_height_m;
     const Eigen::Vector2d at(person.x_m, person.y_m);
     found_at_[p] = at.cast<float>();
+    // The detector's box, as high as what was found (0: a person's).
+    const double height = person.height_m > 0 ? person.height_m : box_.box_height_m;
     for (std::size_t k = 0; k < cameras_; ++k) {
-      // The detector's box (core/footprints.cpp): the upright board, box_width_m wide and as high
-      // as what was found, facing the camera.
-      Rectangle& shadow = shadows_[p * cameras_ + k];
-      shadow = kNotInView;
-      const Eigen::Vector2d to = at - below_[k];
-      const double distance = to.norm();
-      if (distance < 1e-9) continue;
-      const Eigen::Vector2d across = Eigen::Vector2d(-to.y(), to.x()) * (half / distance);
-      const Eigen::Vector3d corners[4] = {{at.x() - across.x(), at.y() - across.y(), 0.0},
-                                          {at.x() + across.x(), at.y() + across.y(), 0.0},
-                                          {at.x() - across.x(), at.y() - across.y(), height},
-                                          {at.x() + across.x(), at.y() + across.y(), height}};
-      shadow = rectangleOf(camera_list_[k], corners);
+      const std::optional<PixelRectangle> board =
+          boardInImage(camera_list_[k], below_[k], at, box_.box_width_m, height);
+      shadows_[p * cameras_ + k] =
+          board ? Rectangle{static_cast<float>(board->u0), static_cast<float>(board->v0),
+                            static_cast<float>(board->u1), static_cast<float>(board->v1)}
+                : kNotInView;
     }
   }
 }

@@ -24,8 +24,8 @@ namespace occmap {
 
 class HiddenFloor {
  public:
-  // `cells`: the map cells that will be asked about (a zone's); `settings`: the people's box, as
-  // the detector's (box_width_m, box_height_m); `column_height_m`: the fusion's (0: the floor).
+  // `cells`: the map cells that will be asked about (every zone's); `settings`: the people's box,
+  // as the detector's (box_width_m, box_height_m); `column_height_m`: the fusion's (0: the floor).
   HiddenFloor(const MapGeometry& map, std::span<const std::uint32_t> cells,
               std::span<const Camera> cameras, const FootprintSettings& settings,
               double column_height_m);
@@ -36,9 +36,6 @@ class HiddenFloor {
   // Whether cells[i] is hidden behind the people found in every camera that sees it, or just
   // past someone found (false when no camera sees it, or someone found stands on it).
   bool hidden(std::size_t i) const;
-  // Whether camera k has cells[i]'s centre in its image.
-  bool seen(std::size_t i, std::size_t k) const { return sights_[i * cameras_ + k].seen(); }
-  std::size_t cameras() const { return cameras_; }
 
   // A rectangle of pixels: the one holding a cell's column in a camera, or a person's box;
   // u0 > u1 where it is not in view.

@@ -64,6 +64,7 @@ void countStates(const CellState* cells, std::size_t n, std::size_t& occupied,
 
 Zones::Zones(const MapGeometry& map, std::span<const ZoneSpec> zones)
     : cell_count_(map.cellCount()) {
+  std::uint32_t before = 0;  // the cells of the zones before this one
   for (const ZoneSpec& zone : zones) {
     if (zone.polygon_m.size() < 3) {
       throw std::invalid_argument("zone " + zone.name + " has fewer than 3 corners");
@@ -80,9 +81,10 @@ Zones::Zones(const MapGeometry& map, std::span<const ZoneSpec> zones)
       if (joins) {
         ++runs.back().count;
       } else {
-        runs.push_back(Run{cells[i], 1, static_cast<std::uint32_t>(i)});
+        runs.push_back(Run{cells[i], 1, before + static_cast<std::uint32_t>(i)});
       }
     }
+    before += static_cast<std::uint32_t>(cells.size());
   }
   status_.resize(cells_.size());
 }
@@ -90,15 +92,18 @@ Zones::Zones(const MapGeometry& map, std::span<const ZoneSpec> zones)
 Zones::Zones(const MapGeometry& map, std::span<const ZoneSpec> zones,
              std::span<const Camera> cameras, const FootprintSettings& box, double column_height_m)
     : Zones(map, zones) {
+  std::vector<std::uint32_t> every;
   for (const std::vector<std::uint32_t>& cells : cells_) {
-    hidden_.emplace_back(map, cells, cameras, box, column_height_m);
+    every.insert(every.end(), cells.begin(), cells.end());
   }
+  hidden_.emplace(map, every, cameras, box, column_height_m);
 }
 
 const std::vector<ZoneStatus>& Zones::update(std::span<const CellState> cells, double time_s,
                                              std::span<const Detection> found) {
   if (cells.size() != cell_count_) throw std::invalid_argument("Zones: the map is not the zones'");
-  const bool judge_hidden = !hidden_.empty() && !found.empty();
+  const bool judge_hidden = hidden_ && !found.empty();
+  bool found_set = false;  // the people found handed to hidden_ once a map, when a zone asks
   for (std::size_t z = 0; z < cells_.size(); ++z) {
     ZoneStatus& status = status_[z];
     status.cells = cells_[z].size();
@@ -116,14 +121,14 @@ const std::vector<ZoneStatus>& Zones::update(std::span<const CellState> cells, d
     // occupied, and only until one is not (then the zone is occupied whatever the rest are).
     status.hidden_only = false;
     if (judge_hidden && status.occupied_cells > 0) {
-      HiddenFloor& hidden = hidden_[z];
-      hidden.setFound(found);
+      if (!found_set) hidden_->setFound(found);
+      found_set = true;
       status.hidden_only = true;
       for (std::size_t r = first_run; r < runs_[z].size() && status.hidden_only; ++r) {
         const Run& run = runs_[z][r];
         for (std::uint32_t j = 0; j < run.count && status.hidden_only; ++j) {
           if (cells[run.first_cell + j] == CellState::kOccupied) {
-            status.hidden_only = hidden.hidden(run.first + j);
+            status.hidden_only = hidden_->hidden(run.first + j);
           }
         }
       }

@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -70,11 +71,11 @@ class Zones {
   struct Run {
     std::uint32_t first_cell;  // in the map
     std::uint32_t count;
-    std::uint32_t first;  // its first cell's place in cells_[zone]
+    std::uint32_t first;  // its first cell's place among every zone's cells, in order (hidden_'s)
   };
   std::vector<std::vector<Run>> runs_;
   std::vector<ZoneStatus> status_;
-  std::vector<HiddenFloor> hidden_;  // per zone, with the cameras
+  std::optional<HiddenFloor> hidden_;  // with the cameras: every zone's cells, one after another
   bool started_ = false;
 };
 

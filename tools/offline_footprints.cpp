@@ -59,9 +59,7 @@ OfflineFootprints::OfflineFootprints(const Config& config, const std::vector<Rig
       const Eigen::Vector2d p = config.map.cellCentre(std::size_t{cell});
       for (const Camera& camera : posed_) {
         const std::optional<Eigen::Vector2d> pixel = camera.worldToStream({p.x(), p.y(), 0.0});
-        sights.push_back(pixel && pixel->x() >= -0.5 && pixel->y() >= -0.5 &&
-                         pixel->x() < camera.streamWidth() - 0.5 &&
-                         pixel->y() < camera.streamHeight() - 0.5);
+        sights.push_back(pixel && camera.pixelIndexAt(*pixel));
       }
     }
   }
