@@ -61,7 +61,8 @@ constexpr std::string_view kControlKeys[] = {"enabled", "key_file", "replay_wind
 constexpr std::string_view kCameraKeys[] = {
     "name",         "source",     "calibration", "calibration_units",
     "image_region", "background", "floor_mask",  "threshold",
-    "lighting",     "fps",        "settings"};
+    "lighting",     "fps",        "settings",    "world_frame"};
+constexpr std::string_view kCalibrationFilesKeys[] = {"intrinsics", "extrinsics"};
 
 int lineOf(const YAML::Node& node) {
   const YAML::Mark mark = node.Mark();
@@ -653,7 +654,17 @@ class ConfigReader {
         checkSource(value, camera.source);
         has_source = true;
       } else if (entry.key == "calibration") {
-        camera.calibration = path(value);
+        readCalibrationFiles(value, camera);
+      } else if (entry.key == "world_frame") {
+        const std::string frame = text(value);
+        if (frame != "right-handed" && frame != "left-handed") {
+          fail(value.line, value.field,
+               "is \"" + frame +
+                   "\"; use right-handed (OpenCV's, the default) or left-handed (Unity's, "
+                   "MultiviewX's)");
+        }
+        camera.world_frame =
+            frame == "left-handed" ? WorldFrame::kLeftHanded : WorldFrame::kRightHanded;
       } else if (entry.key == "calibration_units") {
         const std::string unit = text(value);
         camera.calibration_units = parseLengthUnit(unit);
@@ -705,6 +716,22 @@ class ConfigReader {
       }
     }
     return camera;
+  }
+
+  // One file, or {intrinsics: F, extrinsics: F} as WILDTRACK and MultiviewX ship OpenCV cameras.
+  void readCalibrationFiles(const Value& value, CameraConfig& camera) const {
+    if (!value.node.IsMap()) {
+      camera.calibration = path(value);
+      return;
+    }
+    for (const Entry& entry : entries(value, kCalibrationFilesKeys)) {
+      (entry.key == "intrinsics" ? camera.calibration : camera.extrinsics) = path(entry.value);
+    }
+    if (!camera.calibration || !camera.extrinsics) {
+      fail(value.line, value.field + (camera.calibration ? ".extrinsics" : ".intrinsics"),
+           "is missing; a calibration in two files is {intrinsics: F, extrinsics: F} (OpenCV "
+           "FileStorage YAML or XML), else give one file");
+    }
   }
 
   void checkSource(const Value& value, const std::string& source) const {

@@ -13,6 +13,7 @@
 #include "core/footprints.h"
 #include "core/lighting_model.h"
 #include "core/map_geometry.h"
+#include "core/opencv_camera.h"
 #include "core/zones.h"
 
 namespace occmap {
@@ -61,10 +62,14 @@ struct CameraConfig {
   std::string name;
   std::string source;  // as written: files://..., sim://..., aravis://..., v4l2://...
   // Paths are resolved against the config file's folder (made absolute) and normalised.
-  std::optional<std::filesystem::path> calibration;  // absent only for sim:// sources
-  std::optional<LengthUnit> calibration_units;       // absent: the calibration kind's default
-  std::optional<ImageRegion> image_region;           // absent: the whole calibration frame
-  std::optional<std::filesystem::path> background;   // absent only for sim:// sources
+  // The calibration file, or an OpenCV camera's intrinsics when its extrinsics are in a file of
+  // their own (`calibration: {intrinsics: F, extrinsics: F}`). Absent only for sim:// sources.
+  std::optional<std::filesystem::path> calibration;
+  std::optional<std::filesystem::path> extrinsics;
+  WorldFrame world_frame = WorldFrame::kRightHanded;  // world_frame: left-handed (OpenCV only)
+  std::optional<LengthUnit> calibration_units;        // absent: the calibration kind's default
+  std::optional<ImageRegion> image_region;            // absent: the whole calibration frame
+  std::optional<std::filesystem::path> background;    // absent only for sim:// sources
   std::optional<std::filesystem::path> floor_mask;
   std::optional<int> threshold;  // absent: FusionSettings::threshold
   LightingOverride lighting;     // over FusionSettings::lighting

@@ -66,4 +66,10 @@ std::optional<long long> parseInteger(std::string_view text) {
   return value;
 }
 
+std::string inQuotes(std::string_view text) {
+  constexpr std::size_t kShown = 40;
+  if (text.size() > kShown) return "\"" + std::string(text.substr(0, kShown)) + "...\"";
+  return "\"" + std::string(text) + "\"";
+}
+
 }  // namespace occmap

@@ -19,4 +19,10 @@ std::string_view trimBlanks(std::string_view text);
 // A number for a message, with enough digits to tell values apart and '.' on every locale.
 std::string formatReal(double value);
 
+// Text for a message, in quotes, cut after 40 characters ("...").
+std::string inQuotes(std::string_view text);
+
+// The largest image side a calibration may give, in pixels.
+inline constexpr int kMaxImageSide = 65536;
+
 }  // namespace occmap

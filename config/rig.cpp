@@ -16,12 +16,18 @@
 #include "capture/source_spec.h"
 #include "config/calibration_file.h"
 #include "config/input_error.h"
+#include "core/opencv_camera.h"
 
 namespace occmap {
 namespace {
 
 std::string sizeText(int width, int height) {
   return std::to_string(width) + "x" + std::to_string(height);
+}
+
+LoadedCalibration loadCameraCalibration(const CameraConfig& camera) {
+  return loadCalibration(CalibrationFiles{*camera.calibration, camera.extrinsics},
+                         camera.calibration_units, camera.world_frame);
 }
 
 class CameraOpener {
@@ -104,8 +110,7 @@ Rig Rig::open(const Config& full_config, const RigOptions& options) {
     camera.lighting = entry.effectiveLighting(config.fusion);
 
     std::optional<LoadedCalibration> calibration;
-    if (entry.calibration)
-      calibration = loadCalibration(*entry.calibration, entry.calibration_units);
+    if (entry.calibration) calibration = loadCameraCalibration(entry);
 
     if (spec->kind == SourceSpec::Kind::kSim) {
       std::shared_ptr<const sim::Scene> scene;
@@ -125,20 +130,22 @@ Rig Rig::open(const Config& full_config, const RigOptions& options) {
       }
       std::shared_ptr<const CameraModel> model;
       LengthUnit units = LengthUnit::kMillimetre;
+      const auto& scene_cameras = scene->cameras();
+      const auto found = std::find_if(scene_cameras.begin(), scene_cameras.end(),
+                                      [&](const auto& c) { return c.name == spec->camera; });
+      if (found == scene_cameras.end() && (!calibration || calibration->sizeFromStream())) {
+        std::string names;
+        for (const auto& c : scene_cameras) names += (names.empty() ? "" : ", ") + c.name;
+        opener.fail("source", "scene '" + spec->scene + "' has no camera '" + spec->camera +
+                                  "'; its cameras are: " + names);
+      }
       if (calibration) {
-        // The user's own calibration: the simulator renders what such a camera would see.
-        model = calibration->model;
+        // The user's own calibration: the simulator renders what such a camera would see, at the
+        // scene camera's size if the file leaves the size to the stream.
+        model = calibration->modelFor(found != scene_cameras.end() ? found->calibration.width : 0,
+                                      found != scene_cameras.end() ? found->calibration.height : 0);
         units = calibration->units;
       } else {
-        const auto& scene_cameras = scene->cameras();
-        const auto found = std::find_if(scene_cameras.begin(), scene_cameras.end(),
-                                        [&](const auto& c) { return c.name == spec->camera; });
-        if (found == scene_cameras.end()) {
-          std::string names;
-          for (const auto& c : scene_cameras) names += (names.empty() ? "" : ", ") + c.name;
-          opener.fail("source", "scene '" + spec->scene + "' has no camera '" + spec->camera +
-                                    "'; its cameras are: " + names);
-        }
         model = std::make_shared<TsaiCamera>(found->calibration);
       }
       const ImageRegion region = opener.region(*model);
@@ -174,8 +181,9 @@ Rig Rig::open(const Config& full_config, const RigOptions& options) {
       if (!files) opener.fail("source", error);
       const int width = files->width();
       const int height = files->height();
-      camera.camera = std::make_unique<Camera>(calibration->model, calibration->units, width,
-                                               height, opener.region(*calibration->model));
+      const std::shared_ptr<const CameraModel> model = calibration->modelFor(width, height);
+      camera.camera =
+          std::make_unique<Camera>(model, calibration->units, width, height, opener.region(*model));
       if (options.read_backgrounds) {
         camera.background = opener.readImage("background", *entry.background, width, height);
       }
@@ -192,9 +200,11 @@ Rig Rig::open(const Config& full_config, const RigOptions& options) {
       if (options.read_backgrounds ||
           (entry.background && std::filesystem::exists(*entry.background))) {
         camera.background = opener.readAnyImage("background", *entry.background);
-        camera.camera = std::make_unique<Camera>(
-            calibration->model, calibration->units, camera.background.width(),
-            camera.background.height(), opener.region(*calibration->model));
+        const std::shared_ptr<const CameraModel> model =
+            calibration->modelFor(camera.background.width(), camera.background.height());
+        camera.camera =
+            std::make_unique<Camera>(model, calibration->units, camera.background.width(),
+                                     camera.background.height(), opener.region(*model));
         if (entry.floor_mask) {
           camera.floor_mask =
               opener.readImage("floor_mask", *entry.floor_mask, camera.background.width(),
@@ -245,10 +255,10 @@ void Rig::openLiveCamera(std::size_t index, const SourceSpec& spec) {
   }
   if (!camera.camera) {
     // Opened without its background (to make one): the geometry follows the camera.
-    const LoadedCalibration calibration =
-        loadCalibration(*entry.calibration, entry.calibration_units);
-    camera.camera = std::make_unique<Camera>(calibration.model, calibration.units, width, height,
-                                             opener.region(*calibration.model));
+    const LoadedCalibration calibration = loadCameraCalibration(entry);
+    const std::shared_ptr<const CameraModel> model = calibration.modelFor(width, height);
+    camera.camera =
+        std::make_unique<Camera>(model, calibration.units, width, height, opener.region(*model));
     if (entry.floor_mask) {
       camera.floor_mask = opener.readImage("floor_mask", *entry.floor_mask, width, height);
     }
@@ -278,6 +288,21 @@ bool seesTheFloor(const Camera& camera) {
     }
   }
   return false;
+}
+
+// Whether the camera, seeing no floor, would see it with its world frame taken as left-handed:
+// the floor behind it in every pixel is then most likely a calibration made in Unity's frame
+// (MultiviewX), whose points cv::projectPoints still lands in the image.
+bool seesTheFloorMirrored(const Camera& camera) {
+  const auto* opencv = dynamic_cast<const OpenCvCamera*>(&camera.model());
+  if (opencv == nullptr || opencv->parameters().world_frame == WorldFrame::kLeftHanded) {
+    return false;
+  }
+  OpenCvParameters mirrored = opencv->parameters();
+  mirrored.world_frame = WorldFrame::kLeftHanded;
+  // Whether a ray meets the floor does not depend on the unit.
+  return seesTheFloor(Camera(std::make_shared<OpenCvCamera>(mirrored), LengthUnit::kMetre,
+                             camera.streamWidth(), camera.streamHeight(), camera.region()));
 }
 
 }  // namespace
@@ -386,12 +411,18 @@ std::vector<CarveTable> Rig::buildTables(double column_height_m,
     if (tables[k].cellsInView() == 0) {
       // Not an error: the camera runs on with an empty table and the others make the map. But
       // the user is told which of the two usual slips it is, so that they know what to fix.
-      const std::string why = seesTheFloor(*cameras_[k].camera)
-                                  ? "check its calibration (and calibration_units) against the "
-                                    "map's origin_m and size"
-                                  : "no ray of its image meets the floor in front of it (the "
-                                    "floor is behind the camera or above its view): check the "
-                                    "rotation in its calibration";
+      const Camera& camera = *cameras_[k].camera;
+      const std::string why =
+          seesTheFloor(camera)
+              ? "check its calibration (and calibration_units) against the map's origin_m and "
+                "size"
+          : seesTheFloorMirrored(camera)
+              ? "every floor point lies behind the camera (negative depth), as when the "
+                "extrinsics were made in a left-handed world frame (Unity's, MultiviewX's), "
+                "where cv::projectPoints still lands them in the image: if so, add "
+                "world_frame: left-handed to the camera"
+              : "no ray of its image meets the floor in front of it (the floor is behind the "
+                "camera or above its view): check the rotation in its calibration";
       warnings_.push_back("camera '" + cameras_[k].name +
                           "' sees no cell of the map, so it decides none (an empty carve "
                           "table): " +

@@ -47,4 +47,10 @@ std::string readTextFile(const std::filesystem::path& file, std::string_view wha
   return text;
 }
 
+std::string_view firstContent(std::string_view text) {
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+  const std::size_t first = text.find_first_not_of(" \t\r\n");
+  return first == std::string_view::npos ? std::string_view{} : text.substr(first);
+}
+
 }  // namespace occmap

@@ -15,4 +15,8 @@ inline constexpr std::size_t kMaxInputFileBytes = 16u << 20;
 // with the system's reason; `what` says what kind of file it should have been ("config").
 std::string readTextFile(const std::filesystem::path& file, std::string_view what);
 
+// The text from its first character that is not a byte order mark or a blank: what tells the kinds
+// of calibration file apart.
+std::string_view firstContent(std::string_view text);
+
 }  // namespace occmap

@@ -43,16 +43,28 @@ Eigen::Vector3d rodriguesFromRotation(const Eigen::Matrix3d& rotation) {
   return angle_axis.axis() * angle_axis.angle();
 }
 
+namespace {
+
+// +1 for a right-handed world, -1 for a left-handed one: the camera frame mirrored (WorldFrame).
+double handedness(const OpenCvParameters& p) {
+  return p.world_frame == WorldFrame::kLeftHanded ? -1.0 : 1.0;
+}
+
+}  // namespace
+
 std::shared_ptr<const CameraModel> OpenCvCamera::withPose(const Pose& pose) const {
+  // The file's rvec and tvec of the new pose, in the file's own world frame.
   OpenCvParameters moved = p_;
-  moved.rvec = rodriguesFromRotation(pose.rotation);
-  moved.tvec = pose.translation;
+  const double sign = handedness(p_);
+  moved.rvec = rodriguesFromRotation(sign * pose.rotation);
+  moved.tvec = sign * pose.translation;
   return std::make_shared<OpenCvCamera>(moved);
 }
 
 OpenCvCamera::OpenCvCamera(const OpenCvParameters& parameters)
-    : CameraModel(Pose{rotationFromRodrigues(parameters.rvec), parameters.tvec}, parameters.width,
-                  parameters.height),
+    : CameraModel(Pose{handedness(parameters) * rotationFromRodrigues(parameters.rvec),
+                       handedness(parameters) * parameters.tvec},
+                  parameters.width, parameters.height),
       p_(parameters) {
   const double s =
       smallestPositiveRootOfSlope(p_.distortion[0], p_.distortion[1], p_.distortion[4]);

@@ -1,10 +1,18 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 
 #include "core/camera_model.h"
 
 namespace occmap {
+
+// The world frame a calibration's rvec and tvec were made in. OpenCV's own is right-handed.
+// MultiviewX's (made with Unity) is left-handed: R(rvec) Xw + tvec then puts every floor point
+// behind the camera, yet cv::projectPoints, which divides by the depth whatever its sign, lands it
+// in the right pixel. That projection is the camera's with its frame mirrored, Xc = -(R Xw + t): an
+// improper rotation (determinant -1), which is how such a camera is modelled here.
+enum class WorldFrame : std::uint8_t { kRightHanded, kLeftHanded };
 
 // OpenCV's pinhole model as cv::calibrateCamera and cv::projectPoints define it, with the 5
 // coefficients k1 k2 p1 p2 k3 and the pose Xc = R(rvec) Xw + tvec.
@@ -15,6 +23,7 @@ struct OpenCvParameters {
   std::array<double, 5> distortion{};  // k1 k2 p1 p2 k3
   Eigen::Vector3d rvec = Eigen::Vector3d::Zero();
   Eigen::Vector3d tvec = Eigen::Vector3d::Zero();
+  WorldFrame world_frame = WorldFrame::kRightHanded;  // what rvec and tvec are written in
 };
 
 class OpenCvCamera final : public CameraModel {

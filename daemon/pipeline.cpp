@@ -463,7 +463,11 @@ void Pipeline::repose(std::size_t k, const Image& background) {
   camera.reposed_utime.store(hostTimeMicroseconds(), std::memory_order_relaxed);
   camera.reposes.fetch_add(1, std::memory_order_relaxed);
   camera.control.view_moved.store(false, std::memory_order_relaxed);
-  const Eigen::Vector3d rvec = rodriguesFromRotation(reposed.camera.model().pose().rotation);
+  // The file's rvec (in its own world frame, WorldFrame), where the camera is OpenCV's.
+  const auto* opencv = dynamic_cast<const OpenCvCamera*>(&reposed.camera.model());
+  const Eigen::Vector3d rvec = opencv != nullptr
+                                   ? opencv->parameters().rvec
+                                   : rodriguesFromRotation(reposed.camera.model().pose().rotation);
   const std::string saved = saveReposedCalibration(rig_camera.name, reposed.camera);
   logLine(LogLevel::kNotice,
           "camera %s: re-posed, turned %.2f degrees: its pose is corrected in memory and it is "

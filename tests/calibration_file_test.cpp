@@ -240,7 +240,7 @@ TEST(TsaiXml, MissingOrWrongElementsAreNamed) {
     parseTsaiXml("<?xml version=\"1.0\"?>\n<opencv_storage>\n</opencv_storage>\n", "cam.xml");
   });
   EXPECT_EQ(root.line(), 2);
-  EXPECT_TRUE(says(root, "save the calibration as YAML")) << root.what();
+  EXPECT_TRUE(says(root, "this is an OpenCV calibration (cv::FileStorage XML)")) << root.what();
 }
 
 TEST(TsaiXml, NeverFetchesExternalEntities) {
