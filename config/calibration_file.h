@@ -41,6 +41,9 @@ OpenCvParameters parseOpenCvStorage(std::string_view text, const std::string& fi
 // extrinsics (rvec, tvec) in another, each YAML or XML, as WILDTRACK and MultiviewX ship them.
 OpenCvParameters loadOpenCvCalibration(const std::filesystem::path& intrinsics,
                                        const std::filesystem::path& extrinsics);
+// A camera's intrinsics alone (camera_matrix, distortion_coefficients, the image size if known),
+// from a file that may or may not hold a pose too; rvec and tvec are left zero.
+OpenCvParameters loadOpenCvIntrinsics(const std::filesystem::path& file);
 // The same parameters as that YAML (cv::FileStorage's layout), in full precision: what
 // parseOpenCvYaml reads back exactly.
 std::string openCvYamlText(const OpenCvParameters& parameters);

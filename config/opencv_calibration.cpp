@@ -339,6 +339,14 @@ OpenCvParameters loadOpenCvCalibration(const std::filesystem::path& intrinsics,
   return p;
 }
 
+OpenCvParameters loadOpenCvIntrinsics(const std::filesystem::path& file) {
+  const std::string name = file.string();
+  const StorageNode root = readStorage(readTextFile(file, "intrinsics"), name);
+  OpenCvParameters p;
+  OpenCvReader(root, name, Part::kIntrinsics).readIntrinsics(p);
+  return p;
+}
+
 std::string openCvYamlText(const OpenCvParameters& p) {
   const auto matrix = [](const char* name, int rows, const std::vector<double>& values) {
     std::string text =

@@ -22,5 +22,11 @@ Command addControlCommand(CLI::App& app);
 Command addRecordCommand(CLI::App& app);
 Command addScoreCommand(CLI::App& app);
 Command addTruthCommand(CLI::App& app);
+// occmap calibrate and its steps (each adds itself to `calibrate`).
+Command addCalibrateCommand(CLI::App& app);
+Command addCalibrateBoardCommand(CLI::App& calibrate);
+Command addCalibrateIntrinsicsCommand(CLI::App& calibrate);
+Command addCalibratePoseCommand(CLI::App& calibrate);
+Command addCalibrateCheckCommand(CLI::App& calibrate);
 
 }  // namespace occmap::tools
