@@ -13,7 +13,6 @@
 
 #include "calibrate/aruco_dictionary.h"
 
-
 namespace occmap {
 namespace {
 
@@ -151,7 +150,11 @@ BoardCorners findCharucoCorners(const BoardSpec& spec, const cv::Mat& grey) {
   BoardCorners found;
   for (std::size_t i = 0; i < ids.size(); ++i) {
     found.ids.push_back(ids[i]);
-    found.image_points.push_back(corners[i]);
+    // OpenCV 4.6's interpolateCornersCharuco returns each corner half a pixel right of and below
+    // the saddle point its own cornerSubPix found (opencv_contrib#3024 added the shift,
+    // opencv#25539 reported it, opencv#28380 took it out of the later CharucoDetector; measured
+    // here on rendered boards: +0.50 px in x and y): taken off.
+    found.image_points.push_back(corners[i] - cv::Point2f(0.5f, 0.5f));
     found.board_points.push_back(board->chessboardCorners[static_cast<std::size_t>(ids[i])]);
   }
   return found;

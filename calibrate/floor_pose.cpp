@@ -5,7 +5,6 @@
 #include <cstdio>
 
 #include <Eigen/Eigenvalues>
-#include <opencv2/aruco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
@@ -196,24 +195,6 @@ std::vector<bool> agreeingMarkers(const OpenCvParameters& p, const std::vector<c
 }
 
 }  // namespace
-
-std::vector<MarkerSighting> findMarkers(const cv::Mat& grey, int dictionary) {
-  const cv::Ptr<cv::aruco::Dictionary> words = cv::aruco::getPredefinedDictionary(dictionary);
-  const cv::Ptr<cv::aruco::DetectorParameters> parameters = cv::aruco::DetectorParameters::create();
-  // Sub-pixel corners: the pose is only as good as they are.
-  parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_SUBPIX;
-  std::vector<std::vector<cv::Point2f>> corners;
-  std::vector<int> ids;
-  cv::aruco::detectMarkers(grey, words, corners, ids, parameters);
-  std::vector<MarkerSighting> seen;
-  for (std::size_t i = 0; i < ids.size(); ++i) {
-    MarkerSighting sighting;
-    sighting.id = ids[i];
-    std::copy_n(corners[i].begin(), 4, sighting.corners.begin());
-    seen.push_back(sighting);
-  }
-  return seen;
-}
 
 std::optional<PoseFit> poseFromMarkers(const OpenCvParameters& intrinsics,
                                        const std::vector<FloorMarker>& markers,

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "calibrate/marker_corners.h"
 #include "core/floor_marker.h"
 #include "core/opencv_camera.h"
 
@@ -16,17 +17,6 @@ namespace occmap {
 // A camera's pose on the floor from ArUco markers laid at measured places, or from world points
 // and their pixels measured by hand (issue 15, docs/calibration.md). The intrinsics are known
 // (`occmap calibrate intrinsics`); what is found is OpenCV's rvec and tvec, world to camera.
-
-// One marker found in an image: its id and its four corners in OpenCV's order (top-left,
-// top-right, bottom-right, bottom-left as printed), sub-pixel, the top-left pixel's centre at (0,
-// 0).
-struct MarkerSighting {
-  int id = 0;
-  std::array<cv::Point2f, 4> corners;
-};
-
-// The markers of the dictionary (cv::aruco::PREDEFINED_DICTIONARY_NAME) in an 8-bit grey image.
-std::vector<MarkerSighting> findMarkers(const cv::Mat& grey, int dictionary);
 
 struct MarkerFit {
   int id = 0;

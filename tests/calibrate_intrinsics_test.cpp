@@ -239,6 +239,32 @@ TEST(CalibrateIntrinsics, TheRendererIsExact) {
   EXPECT_LT(renderer().largestRayError(), 1e-3) << "the test's own undistortion is off";
 }
 
+// Where a corner is, in both boards: a board drawn square-on, 40 pixels a square, has its corners
+// on pixel boundaries, which are at x.5 with pixel centres at whole numbers (OpenCV's convention
+// and occmap's). OpenCV 4.6's interpolateCornersCharuco alone answers half a pixel further right
+// and down; findBoardCorners must not.
+TEST(CalibrateIntrinsics, CornersAreWhereTheSquaresMeet) {
+  for (const char* text : {"charuco:7x5:0.04:0.03:DICT_4X4_50", "chessboard:6x4:0.04"}) {
+    const BoardSpec board = spec(text);
+    cv::Mat picture = boardPicture(board, 1000, 20);  // 40 pixels a square, 20 of margin
+    ASSERT_EQ(squarePixels(board, 1000), 40);
+    cv::GaussianBlur(picture, picture, cv::Size(5, 5), 1.0);  // a lens's softness
+    const BoardCorners corners = findBoardCorners(board, picture);
+    ASSERT_FALSE(corners.empty()) << text;
+    double largest = 0;
+    for (std::size_t i = 0; i < corners.size(); ++i) {
+      // ChArUco's board points count from the board's outer corner, a chessboard's from its
+      // first inner corner, one square in.
+      const double squares_in = board.kind == BoardKind::kCharuco ? 0.0 : 1.0;
+      const double x = 20 + 40 * (double{corners.board_points[i].x} / 0.04 + squares_in) - 0.5;
+      const double y = 20 + 40 * (double{corners.board_points[i].y} / 0.04 + squares_in) - 0.5;
+      largest = std::max(largest, std::hypot(double{corners.image_points[i].x} - x,
+                                             double{corners.image_points[i].y} - y));
+    }
+    EXPECT_LT(largest, 0.05) << text;
+  }
+}
+
 TEST(CalibrateIntrinsics, CharucoPicturesGiveBackTheCamera) {
   const std::vector<BoardCorners> views = cornersIn(kCharuco, charucoPictures());
   expectTheTrueCamera(kCharuco, calibrateIntrinsics(spec(kCharuco), views, cv::Size(640, 480)));

@@ -24,6 +24,7 @@ Command addCalibrateCommand(CLI::App& app) {
   add(addCalibrateIntrinsicsCommand, "intrinsics");
   add(addCalibratePoseCommand, "pose");
   add(addCalibrateCheckCommand, "check");
+  add(addCalibrateSimulateCommand, "simulate");
   return [calibrate, steps] { return steps->at(calibrate->get_subcommands().front())(); };
 }
 

@@ -28,5 +28,6 @@ Command addCalibrateBoardCommand(CLI::App& calibrate);
 Command addCalibrateIntrinsicsCommand(CLI::App& calibrate);
 Command addCalibratePoseCommand(CLI::App& calibrate);
 Command addCalibrateCheckCommand(CLI::App& calibrate);
+Command addCalibrateSimulateCommand(CLI::App& calibrate);
 
 }  // namespace occmap::tools

@@ -82,7 +82,17 @@ void emitCamera(YAML::Emitter& yaml, const CameraConfig& entry, const RigCamera&
     return (fs::path(entry.name) / file).string();
   };
   if (entry.calibration) {
-    yaml << YAML::Key << "calibration" << YAML::Value << entry.calibration->string();
+    yaml << YAML::Key << "calibration" << YAML::Value;
+    if (entry.extrinsics) {
+      yaml << YAML::Flow << YAML::BeginMap << YAML::Key << "intrinsics" << YAML::Value
+           << entry.calibration->string() << YAML::Key << "extrinsics" << YAML::Value
+           << entry.extrinsics->string() << YAML::EndMap;
+    } else {
+      yaml << entry.calibration->string();
+    }
+    if (entry.world_frame == WorldFrame::kLeftHanded) {
+      yaml << YAML::Key << "world_frame" << YAML::Value << "left-handed";
+    }
     if (entry.calibration_units) {
       yaml << YAML::Key << "calibration_units" << YAML::Value
            << std::string(unitName(*entry.calibration_units));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 namespace occmap::sim {
 namespace {
@@ -72,6 +73,51 @@ Renderer::Renderer(const Scene& scene, Camera camera, int camera_index)
       const Eigen::Vector3d point =
           centre_ + static_cast<double>(background_depth_[i]) * directions_[i].cast<double>();
       if (point.z() <= 1e-3) floor_pixels_.push_back({i, point.head<2>()});
+    }
+  }
+  if (scene_.backgroundSamples() > 1) integrateOverPixels(scene_.backgroundSamples());
+}
+
+void Renderer::integrateOverPixels(int samples) {
+  const int width = camera_.streamWidth();
+  const int height = camera_.streamHeight();
+  // A camera integrates light over its pixels; one ray through a pixel's centre draws every edge as
+  // a staircase and corners found from it are off by up to half a pixel. n x n rays spread over the
+  // pixel, their shades averaged, draw an edge where a camera would. Only near the floor's markers,
+  // the one place where edges are measured to a fraction of a pixel (the rest of the floor would
+  // multiply the time this takes by the number of rays); everywhere in a scene without markers.
+  const std::vector<FloorMarker>& markers = scene_.floorMarkers();
+  const auto near_a_marker = [&](const Eigen::Vector3d& point) {
+    if (markers.empty()) return true;
+    for (const FloorMarker& marker : markers) {
+      // The paper's half-diagonal, and room for the widest pixel's footprint on the floor.
+      const double reach = (0.5 + kMarkerPaperMargin) * marker.side_m * std::numbers::sqrt2 + 0.3;
+      if ((point.head<2>() - marker.centre_m).norm() < reach) return true;
+    }
+    return false;
+  };
+  const double step = 1.0 / samples;
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v * width + u);
+      if (background_depth_[i] <= 0.0f) continue;
+      const Eigen::Vector3d centre_point =
+          centre_ + static_cast<double>(background_depth_[i]) * directions_[i].cast<double>();
+      if (!near_a_marker(centre_point)) continue;
+      double sum = 0.0;
+      int count = 0;
+      for (int a = 0; a < samples; ++a) {
+        for (int b = 0; b < samples; ++b) {
+          const Eigen::Vector2d at(u + (b + 0.5) * step - 0.5, v + (a + 0.5) * step - 0.5);
+          const std::optional<Ray> ray = camera_.streamToRay(at);
+          if (!ray) continue;
+          const Scene::Hit hit = scene_.castStatic(centre_, ray->direction);
+          if (!std::isfinite(hit.t)) continue;
+          sum += scene_.staticShade(centre_ + hit.t * ray->direction, hit.normal);
+          ++count;
+        }
+      }
+      if (count > 0) background_.at(u, v) = toGrey(sum / count);
     }
   }
 }
@@ -156,11 +202,16 @@ void Renderer::render(const std::vector<SceneObject>& objects, std::uint64_t fra
       }
     }
   }
-  // Sensor noise: the sum of two uniform integers in [-3, 3], the same for the same frame and
-  // camera.
-  std::uint64_t state = frame_number * 0x100000001b3ull + static_cast<std::uint64_t>(camera_index_);
-  std::uint8_t* pixel = out.data();
-  const std::size_t count = directions_.size();
+  // The same noise for the same frame and camera.
+  addSensorNoise(frame_number * 0x100000001b3ull + static_cast<std::uint64_t>(camera_index_), out);
+}
+
+void addSensorNoise(std::uint64_t seed, Image& image) {
+  // The sum of two uniform integers in [-3, 3] (kSensorNoiseAmplitude each way).
+  std::uint64_t state = seed;
+  std::uint8_t* pixel = image.data();
+  const std::size_t count =
+      static_cast<std::size_t>(image.width()) * static_cast<std::size_t>(image.height());
   for (std::size_t i = 0; i < count;) {
     std::uint64_t bits = splitmix(state);
     for (int k = 0; k < 4 && i < count; ++k, ++i) {

@@ -50,6 +50,8 @@ class Renderer {
     int u0, v0, u1, v1;  // inclusive
   };
   PixelBounds projectedBounds(const Solid& solid) const;
+  // The background averaged over `samples` x `samples` rays a pixel (Scene::backgroundSamples).
+  void integrateOverPixels(int samples);
 
   const Scene& scene_;
   Camera camera_;
@@ -66,6 +68,10 @@ class Renderer {
   Image background_;
   Image floor_mask_;
 };
+
+// Adds the sensor noise every simulated camera has (kSensorNoiseAmplitude each way) to `image`,
+// the same for the same seed.
+void addSensorNoise(std::uint64_t seed, Image& image);
 
 // The scene's truth on a map at one moment, for tests and for the demo's comparison.
 struct GroundTruth {

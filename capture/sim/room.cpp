@@ -7,6 +7,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <opencv2/aruco.hpp>
+
 #include "capture/sim/scene.h"
 
 namespace occmap::sim {
@@ -424,6 +426,77 @@ class RoomDayScene final : public RoomInItsLight {
   inline static const Eigen::Vector2d kStillPerson{4.4, 3.2};  // the middle of the room
   static bool stillPersonThere(double t) { return t >= 120.0 && t < 360.0; }
 };
+
+// The room empty (no one in it, nothing moving) with ArUco markers printed on white paper lying on
+// its floor (issue 15): what an installer lays down to calibrate the cameras with occmap itself.
+// The markers lie in the open middle of the floor, away from the shelves, each camera seeing at
+// least four of them from 3 to 8 m, at yaws of every kind. The background is rendered with 4 x 4
+// rays a pixel so that their corners can be found to a fraction of a pixel.
+class RoomMarkersScene final : public RoomInItsLight {
+ public:
+  RoomMarkersScene() {
+    // Three rows across the open floor, 1.45 m apart and 1.6 m along: no two papers touch.
+    markers_ = {
+        {0, {2.4, 1.8}, 0.5, 0.0},     {1, {4.0, 1.8}, 0.5, 30.0},   {2, {5.6, 1.8}, 0.5, -45.0},
+        {3, {7.0, 1.8}, 0.5, 90.0},    {4, {3.2, 3.25}, 0.6, 15.0},  {5, {4.8, 3.25}, 0.6, 120.0},
+        {6, {6.4, 3.25}, 0.6, -100.0}, {7, {2.4, 4.7}, 0.5, 180.0},  {8, {4.0, 4.7}, 0.5, 60.0},
+        {9, {5.6, 4.7}, 0.5, -20.0},   {10, {7.0, 4.7}, 0.5, 150.0},
+    };
+    const cv::Ptr<cv::aruco::Dictionary> dictionary =
+        cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50);
+    // One bitmap pixel per cell of the marker (its bits and the black border), so that sampling it
+    // by position puts every edge exactly where the marker's geometry says.
+    cells_ = dictionary->markerSize + 2;
+    for (const FloorMarker& marker : markers_) {
+      cv::Mat printed;
+      cv::aruco::drawMarker(dictionary, marker.id, cells_, printed, 1);
+      printed_.push_back(printed);
+    }
+  }
+
+  std::string_view name() const override { return "room-markers"; }
+  using Scene::objectsAt;
+  void objectsAt(double /*t*/, std::vector<SceneObject>& out) const override { out.clear(); }
+  const std::vector<FloorMarker>& floorMarkers() const override { return markers_; }
+  int backgroundSamples() const override { return 4; }
+
+  double staticShade(const Eigen::Vector3d& p, const Eigen::Vector3d& normal) const override {
+    if (normal.z() > 0.5 && p.z() < 1e-6) {
+      for (std::size_t k = 0; k < markers_.size(); ++k) {
+        const std::optional<double> shade = printedShade(k, p.head<2>());
+        if (shade) return *shade;
+      }
+    }
+    return RoomInItsLight::staticShade(p, normal);
+  }
+
+ private:
+  static constexpr double kPaper = 230.0;
+  static constexpr double kInk = 20.0;
+
+  // The grey level of marker k's paper at floor point p, or nothing off its paper.
+  std::optional<double> printedShade(std::size_t k, const Eigen::Vector2d& p) const {
+    const FloorMarker& marker = markers_[k];
+    const double yaw = marker.yaw_deg * std::numbers::pi / 180.0;
+    const Eigen::Vector2d d = p - marker.centre_m;
+    // Marker-local coordinates, as printed: right, and down from the top edge.
+    const double right = d.x() * std::cos(yaw) + d.y() * std::sin(yaw);
+    const double down = d.x() * std::sin(yaw) - d.y() * std::cos(yaw);
+    const double half = marker.side_m / 2;
+    const double paper = half + kMarkerPaperMargin * marker.side_m;
+    if (std::abs(right) > paper || std::abs(down) > paper) return std::nullopt;
+    if (std::abs(right) >= half || std::abs(down) >= half) return kPaper;
+    const auto cell = [&](double along) {
+      return std::clamp(static_cast<int>(std::floor((along + half) / marker.side_m * cells_)), 0,
+                        cells_ - 1);
+    };
+    return printed_[k].at<std::uint8_t>(cell(down), cell(right)) == 0 ? kInk : kPaper;
+  }
+
+  std::vector<FloorMarker> markers_;
+  int cells_ = 0;
+  std::vector<cv::Mat> printed_;  // per marker: its bitmap, row 0 the printed top
+};
 }  // namespace
 
 std::unique_ptr<Scene> makeScene(std::string_view name) {
@@ -434,11 +507,13 @@ std::unique_ptr<Scene> makeScene(std::string_view name) {
   if (name == "room-knock") return std::make_unique<RoomKnockScene>();
   if (name == "room-day") return std::make_unique<RoomDayScene>();
   if (name == "room-crowd") return std::make_unique<RoomCrowdScene>();
+  if (name == "room-markers") return std::make_unique<RoomMarkersScene>();
   return nullptr;
 }
 
 std::vector<std::string> sceneNames() {
-  return {"room", "room-light", "room-gains", "room-lamps", "room-knock", "room-day", "room-crowd"};
+  return {"room",       "room-light", "room-gains", "room-lamps",
+          "room-knock", "room-day",   "room-crowd", "room-markers"};
 }
 
 }  // namespace occmap::sim

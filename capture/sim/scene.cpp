@@ -1,8 +1,10 @@
 #include "capture/sim/scene.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include <Eigen/Geometry>
 
@@ -120,6 +122,27 @@ TsaiParameters turnedOnItsMount(const TsaiParameters& calibration, const Eigen::
   TsaiParameters turned = calibration;
   turned.setPose(occmap::turnedOnItsMount(TsaiCamera(calibration).pose(), turn));
   return turned;
+}
+
+const std::vector<FloorMarker>& Scene::floorMarkers() const {
+  static const std::vector<FloorMarker> none;
+  return none;
+}
+
+std::string markersYamlText(const Scene& scene) {
+  // The shortest text that reads back as the same double: full precision, and 0.3 stays "0.3".
+  const auto number = [](double value) {
+    char digits[32];
+    const std::to_chars_result end = std::to_chars(digits, digits + sizeof digits, value);
+    return std::string(digits, end.ptr);
+  };
+  std::string text = "dictionary: " + std::string(scene.markerDictionary()) + "\nmarkers:\n";
+  for (const FloorMarker& m : scene.floorMarkers()) {
+    text += "  - {id: " + std::to_string(m.id) + ", centre_m: [" + number(m.centre_m.x()) + ", " +
+            number(m.centre_m.y()) + "], side_m: " + number(m.side_m) +
+            ", yaw_deg: " + number(m.yaw_deg) + "}\n";
+  }
+  return text;
 }
 
 bool Scene::roomContains(const Eigen::Vector3d& p) const {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -10,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "core/floor_marker.h"
 #include "core/tsai_camera.h"
 
 namespace occmap::sim {
@@ -95,6 +97,10 @@ struct Knock {
 // The calibration of a camera turned so.
 TsaiParameters turnedOnItsMount(const TsaiParameters& calibration, const Eigen::Vector3d& turn);
 
+// The scene's markers lie on white paper (core/floor_marker.h says where their corners are).
+// The paper's margin round a marker, as a fraction of its side.
+inline constexpr double kMarkerPaperMargin = 0.25;
+
 class Scene {
  public:
   virtual ~Scene() = default;
@@ -135,6 +141,15 @@ class Scene {
   // down or a person stopping, a knock), for measures taken some time after each.
   virtual std::vector<double> eventTimes() const { return {}; }
 
+  // ArUco markers lying on the floor (part of the static background), from the dictionary named
+  // as OpenCV names it.
+  virtual const std::vector<FloorMarker>& floorMarkers() const;
+  virtual std::string_view markerDictionary() const { return "DICT_4X4_50"; }
+  // Rays per pixel along each axis for the static background (n x n, their shades averaged), as a
+  // camera integrates light over its pixel: 1 is one ray through the pixel's centre. Sub-pixel
+  // corner detection needs edges without staircases.
+  virtual int backgroundSamples() const { return 1; }
+
   // The nearest static surface along a ray (t > 1e-9), with its normal; rays from inside the room
   // always hit something (walls and ceiling close it).
   struct Hit {
@@ -151,8 +166,14 @@ class Scene {
 // its light steps and ramps; "room-gains": the light stepped and ramped between half and double;
 // "room-lamps": light in parts of it; "room-knock": camera c1 turned by
 // 1 degree at 1 s; "room-day": ten minutes of light, lamps, sun, shadows, a box left, a person
-// standing still and a knock; docs/lighting.md). Empty for an unknown name.
+// standing still and a knock; docs/lighting.md; "room-crowd": twelve people walking;
+// "room-markers": the room empty, with ArUco markers on its floor, for calibration). Empty for an
+// unknown name.
 std::unique_ptr<Scene> makeScene(std::string_view name);
 std::vector<std::string> sceneNames();
+
+// The scene's floor markers as the calibration tool reads them (markers.yaml): the dictionary, then
+// one line per marker, `  - {id: 3, centre_m: [x, y], side_m: 0.3, yaw_deg: 0}`.
+std::string markersYamlText(const Scene& scene);
 
 }  // namespace occmap::sim
