@@ -7,6 +7,8 @@
 #include <memory>
 #include <string>
 
+#include <opencv2/calib3d.hpp>
+
 #include "calibrate/board.h"
 #include "capture/image_file.h"
 #include "capture/sim/target_view.h"
@@ -16,6 +18,7 @@
 #include "config/exit_codes.h"
 #include "config/input_error.h"
 #include "config/rig.h"
+#include "core/opencv_camera.h"
 #include "tools/commands.h"
 
 namespace occmap::tools {
@@ -33,6 +36,51 @@ struct SimulateOptions {
   std::string out;
   int count = 15;
 };
+
+// The simulated camera as OpenCV's model (the simulator's own lens model is Tsai's, which OpenCV's
+// can only approximate): fitted to the exact projections of points spread over the whole picture
+// at several distances and tilts, with the camera's true pose. What a calibration with occmap can
+// at best find; `rms` says how closely the model follows the lens.
+OpenCvParameters asOpenCv(const Camera& camera, double& rms) {
+  std::vector<std::vector<cv::Point3f>> board_points;
+  std::vector<std::vector<cv::Point2f>> image_points;
+  for (const sim::TargetPose& pose : sim::targetPosesFor(camera, 1.0, 0.75, 18, true)) {
+    std::vector<cv::Point3f> on_board;
+    std::vector<cv::Point2f> in_image;
+    for (int row = 0; row <= 15; ++row) {
+      for (int column = 0; column <= 20; ++column) {
+        const Eigen::Vector2d paper(column * 0.05, row * 0.05);
+        const auto pixel = camera.worldToStream(sim::targetPointInWorld(camera, pose, paper));
+        if (!pixel || !camera.pixelIndexAt(*pixel)) continue;
+        on_board.emplace_back(static_cast<float>(paper.x()), static_cast<float>(paper.y()), 0.0f);
+        in_image.emplace_back(static_cast<float>(pixel->x()), static_cast<float>(pixel->y()));
+      }
+    }
+    if (on_board.size() < 20) continue;
+    board_points.push_back(std::move(on_board));
+    image_points.push_back(std::move(in_image));
+  }
+  const cv::Size size(camera.streamWidth(), camera.streamHeight());
+  cv::Mat k, d;
+  std::vector<cv::Mat> rvecs, tvecs;
+  const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12);
+  cv::calibrateCamera(board_points, image_points, size, k, d, rvecs, tvecs,
+                      cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST, until);
+  rms = cv::calibrateCamera(board_points, image_points, size, k, d, rvecs, tvecs,
+                            cv::CALIB_USE_INTRINSIC_GUESS, until);
+  OpenCvParameters p;
+  p.width = size.width;
+  p.height = size.height;
+  p.fx = k.at<double>(0, 0);
+  p.fy = k.at<double>(1, 1);
+  p.cx = k.at<double>(0, 2);
+  p.cy = k.at<double>(1, 2);
+  for (std::size_t i = 0; i < 5; ++i) p.distortion[i] = d.at<double>(static_cast<int>(i));
+  const Pose& pose = camera.model().pose();
+  p.rvec = rodriguesFromRotation(pose.rotation);
+  p.tvec = pose.translation * camera.metresPerUnit();
+  return p;
+}
 
 void writePng(const fs::path& file, const Image& image) {
   std::string error;
@@ -56,12 +104,14 @@ int runSimulate(const SimulateOptions& o) {
   const sim::Renderer& renderer = camera.sim->renderer();
   fs::create_directories(o.out);
 
-  // The board, with a white margin of a square all round (the detectors need one).
+  // The board, with a white margin of a square all round, as it should be printed (the detectors
+  // need one; with less, cornerSubPix's window takes in what lies behind the board).
   const int margin = squarePixels(*spec, kPixelsPerMetre);
   const cv::Mat texture = boardPicture(*spec, kPixelsPerMetre, margin);
   const double width_m = texture.cols / double{kPixelsPerMetre};
   const double height_m = texture.rows / double{kPixelsPerMetre};
-  const auto poses = sim::targetPosesFor(*camera.camera, width_m, height_m, o.count);
+  const auto poses = sim::targetPosesFor(*camera.camera, width_m, height_m, o.count,
+                                         spec->kind == BoardKind::kCharuco);
   for (std::size_t k = 0; k < poses.size(); ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "board_%02zu.png", k);
@@ -79,12 +129,18 @@ int runSimulate(const SimulateOptions& o) {
   if (!scene.floorMarkers().empty()) {
     std::ofstream(fs::path(o.out) / "markers.yaml") << sim::markersYamlText(scene);
   }
-  // The camera's true calibration, to compare a calibration made from these pictures with.
+  // The camera's true calibration, to compare a calibration made from these pictures with: as the
+  // simulator has it, and as OpenCV's model fitted to it.
   if (const auto text = calibrationText(camera.camera->model(), o.camera)) {
     std::ofstream(fs::path(o.out) / ("true-calibration" + text->extension)) << text->text;
   }
-  std::printf("wrote %zu board pictures, floor.png%s and the true calibration to %s\n",
-              poses.size(), scene.floorMarkers().empty() ? "" : ", markers.yaml", o.out.c_str());
+  double rms = 0;
+  const OpenCvParameters fitted = asOpenCv(*camera.camera, rms);
+  std::ofstream(fs::path(o.out) / "true-opencv.yaml") << openCvYamlText(fitted);
+  std::printf(
+      "wrote %zu board pictures, floor.png%s and the true calibration to %s (as OpenCV's "
+      "model in true-opencv.yaml, which follows the simulator's lens to %.3f px RMS)\n",
+      poses.size(), scene.floorMarkers().empty() ? "" : ", markers.yaml", o.out.c_str(), rms);
   return kExitOk;
 }
 

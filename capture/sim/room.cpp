@@ -435,12 +435,14 @@ class RoomDayScene final : public RoomInItsLight {
 class RoomMarkersScene final : public RoomInItsLight {
  public:
   RoomMarkersScene() {
-    // Three rows across the open floor, 1.45 m apart and 1.6 m along: no two papers touch.
+    // Three rows across the open floor, 1.45 m apart and 1.6 m along: no two papers touch. Ids from
+    // 20: a ChArUco board of the same dictionary held up in the room (7 x 5 squares: ids 0 to 16)
+    // must not find its own markers on the floor.
     markers_ = {
-        {0, {2.4, 1.8}, 0.5, 0.0},     {1, {4.0, 1.8}, 0.5, 30.0},   {2, {5.6, 1.8}, 0.5, -45.0},
-        {3, {7.0, 1.8}, 0.5, 90.0},    {4, {3.2, 3.25}, 0.6, 15.0},  {5, {4.8, 3.25}, 0.6, 120.0},
-        {6, {6.4, 3.25}, 0.6, -100.0}, {7, {2.4, 4.7}, 0.5, 180.0},  {8, {4.0, 4.7}, 0.5, 60.0},
-        {9, {5.6, 4.7}, 0.5, -20.0},   {10, {7.0, 4.7}, 0.5, 150.0},
+        {20, {2.4, 1.8}, 0.5, 0.0},     {21, {4.0, 1.8}, 0.5, 30.0},  {22, {5.6, 1.8}, 0.5, -45.0},
+        {23, {7.0, 1.8}, 0.5, 90.0},    {24, {3.2, 3.25}, 0.6, 15.0}, {25, {4.8, 3.25}, 0.6, 120.0},
+        {26, {6.4, 3.25}, 0.6, -100.0}, {27, {2.4, 4.7}, 0.5, 180.0}, {28, {4.0, 4.7}, 0.5, 60.0},
+        {29, {5.6, 4.7}, 0.5, -20.0},   {30, {7.0, 4.7}, 0.5, 150.0},
     };
     const cv::Ptr<cv::aruco::Dictionary> dictionary =
         cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50);

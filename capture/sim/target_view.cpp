@@ -136,22 +136,32 @@ Image renderTargetView(const Renderer& empty_view, const cv::Mat& texture, doubl
 }
 
 std::vector<TargetPose> targetPosesFor(const Camera& camera, double width_m, double height_m,
-                                       int count) {
+                                       int count, bool partly_in_view) {
+  // A ChArUco board counts partly seen, so it is held out past the picture's edges too; a
+  // chessboard must be seen whole.
+  const double least_in_view = partly_in_view ? 0.7 : 1.0;
   const double width = camera.streamWidth();
   const double height = camera.streamHeight();
   const Eigen::Matrix3d to_camera = camera.model().pose().rotation;
   // Where the target's centre is aimed (fractions of the image), how it is tilted (degrees about
   // the camera's x and y axes, and a little about its own normal) and how much of the image it
   // fills, in cycles of different lengths so that the poses mix them.
-  constexpr std::array<std::array<double, 2>, 9> kPlaces = {{{0.5, 0.5},
-                                                             {0.25, 0.25},
-                                                             {0.75, 0.75},
-                                                             {0.75, 0.25},
-                                                             {0.25, 0.75},
-                                                             {0.5, 0.25},
-                                                             {0.25, 0.5},
-                                                             {0.5, 0.75},
-                                                             {0.75, 0.5}}};
+  // As far out as the target goes whole: the corners and edges are where a lens's distortion
+  // shows, and `occmap calibrate intrinsics` wants half the image covered. Nearer a corner it is
+  // held further away (it fills less), so that it reaches into the corner.
+  struct Place {
+    double u, v;  // where its centre is aimed, as fractions of the image
+    double fill;  // the share of the image it fills
+  };
+  constexpr std::array<Place, 9> kPlaces = {{{0.5, 0.5, 0.45},
+                                             {0.1, 0.1, 0.15},
+                                             {0.9, 0.9, 0.15},
+                                             {0.9, 0.1, 0.15},
+                                             {0.1, 0.9, 0.15},
+                                             {0.5, 0.12, 0.25},
+                                             {0.12, 0.5, 0.25},
+                                             {0.5, 0.88, 0.25},
+                                             {0.88, 0.5, 0.25}}};
   constexpr std::array<std::array<double, 3>, 8> kTilts = {{{0, 0, 0},
                                                             {30, 0, 5},
                                                             {0, -30, -5},
@@ -160,8 +170,7 @@ std::vector<TargetPose> targetPosesFor(const Camera& camera, double width_m, dou
                                                             {-35, 0, 0},
                                                             {0, 35, 5},
                                                             {20, -25, -5}}};
-  constexpr std::array<double, 4> kFills = {0.3, 0.2, 0.45, 0.15};
-  constexpr double kMarginFraction = 0.03;
+  constexpr double kMarginFraction = 0.01;
   const double margin = kMarginFraction * width;
   const auto degrees = [](double d) { return d * std::numbers::pi / 180.0; };
   const std::vector<Eigen::Vector2d> edge = outline(width_m, height_m);
@@ -170,10 +179,10 @@ std::vector<TargetPose> targetPosesFor(const Camera& camera, double width_m, dou
   std::vector<TargetPose> poses;
   for (int k = 0; k < count; ++k) {
     const auto index = static_cast<std::size_t>(k);
-    const std::array<double, 2>& place = kPlaces[index % kPlaces.size()];
+    const Place& place = kPlaces[index % kPlaces.size()];
     const std::array<double, 3>& tilt = kTilts[index % kTilts.size()];
-    Eigen::Vector2d aim(place[0] * width, place[1] * height);
-    double fill = kFills[index % kFills.size()];
+    Eigen::Vector2d aim(place.u * width, place.v * height);
+    double fill = place.fill;
     const Eigen::Matrix3d board = (Eigen::AngleAxisd(degrees(tilt[0]), Eigen::Vector3d::UnitX()) *
                                    Eigen::AngleAxisd(degrees(tilt[1]), Eigen::Vector3d::UnitY()) *
                                    Eigen::AngleAxisd(degrees(tilt[2]), Eigen::Vector3d::UnitZ()))
@@ -181,7 +190,7 @@ std::vector<TargetPose> targetPosesFor(const Camera& camera, double width_m, dou
     const Eigen::AngleAxisd turn(board);
     std::optional<TargetPose> held;
     // A person moves the target in towards the image's middle, and back, until it is all in view.
-    for (int attempt = 0; attempt < 40 && !held; ++attempt) {
+    for (int attempt = 0; attempt < 120 && !held; ++attempt) {
       const std::optional<Ray> ray = camera.streamToRay(aim);
       if (!ray) break;
       Eigen::Vector3d direction = to_camera * ray->direction;
@@ -214,19 +223,24 @@ std::vector<TargetPose> targetPosesFor(const Camera& camera, double width_m, dou
         }
         depth *= std::sqrt(std::abs(area) / 2 / (fill * width * height));
       }
-      bool inside = imaged;
+      // The share of the target's outline in the picture, within the margin.
+      std::size_t in_view = 0;
       for (const Eigen::Vector2d& p : edge) {
-        if (!inside) break;
+        if (!imaged) break;
         const std::optional<Eigen::Vector2d> s =
             camera.worldToStream(targetPointInWorld(camera, pose, p));
-        inside = s && s->x() >= margin && s->y() >= margin && s->x() <= width - 1 - margin &&
-                 s->y() <= height - 1 - margin;
+        in_view += s && s->x() >= margin && s->y() >= margin && s->x() <= width - 1 - margin &&
+                           s->y() <= height - 1 - margin
+                       ? 1
+                       : 0;
       }
+      const bool inside = imaged && static_cast<double>(in_view) >=
+                                        least_in_view * static_cast<double>(edge.size());
       if (inside) {
         held = pose;
       } else {
-        aim += 0.15 * (Eigen::Vector2d(width / 2, height / 2) - aim);
-        if (attempt % 4 == 3) fill *= 0.9;
+        aim += 0.05 * (Eigen::Vector2d(width / 2, height / 2) - aim);
+        if (attempt % 4 == 3) fill *= 0.95;
       }
     }
     if (held) poses.push_back(*held);

@@ -37,10 +37,12 @@ Image renderTargetView(const Renderer& empty_view, const cv::Mat& texture, doubl
                        double height_m, const TargetPose& pose, std::uint64_t noise_seed);
 
 // `count` poses a person calibrating a camera would hold the target at, the same every time: the
-// target filling some 15 to 50 % of the image, tilted up to about 35 degrees about its axes, at the
+// target filling some 15 to 45 % of the image, tilted up to about 35 degrees about its axes, at the
 // image's centre, edges and corners (where the lens distorts most), wholly inside the image with a
 // margin, its printed side facing the camera.
+// With `partly_in_view` (a ChArUco board, whose corners are told apart by their markers) up to
+// 30 % of the target's outline may lie outside the picture, as a person reaches into its corners.
 std::vector<TargetPose> targetPosesFor(const Camera& camera, double width_m, double height_m,
-                                       int count);
+                                       int count, bool partly_in_view = false);
 
 }  // namespace occmap::sim
