@@ -124,16 +124,11 @@ IntrinsicsResult calibrateIntrinsics(const BoardSpec& spec, const std::vector<Bo
   cv::Mat distortion;
   std::vector<cv::Mat> rvecs, tvecs;
   cv::Mat intrinsic_sigmas, extrinsic_sigmas, view_errors;
-  // In two steps. OpenCV starts from homographies that assume no distortion; with a wide lens and
-  // boards held out at the picture's corners, solving for all five coefficients from there can run
-  // away (a simulated 3.5 mm lens: RMS 42 px, fy 259 for 350). So first k1 and k2 alone, then all
-  // of k1 k2 p1 p2 k3 from that start: zero skew, the model occmap's OpenCV YAML holds.
+  // flags 0: k1 k2 p1 p2 k3 and zero skew, the model occmap's OpenCV YAML holds.
   const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, DBL_EPSILON);
-  cv::calibrateCamera(board_points, image_points, image_size, camera_matrix, distortion, rvecs,
-                      tvecs, cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST, until);
-  report.rms_px = cv::calibrateCamera(
-      board_points, image_points, image_size, camera_matrix, distortion, rvecs, tvecs,
-      intrinsic_sigmas, extrinsic_sigmas, view_errors, cv::CALIB_USE_INTRINSIC_GUESS, until);
+  report.rms_px =
+      cv::calibrateCamera(board_points, image_points, image_size, camera_matrix, distortion, rvecs,
+                          tvecs, intrinsic_sigmas, extrinsic_sigmas, view_errors, 0, until);
   std::size_t next = 0;
   for (ViewReport& view_report : report.views) {
     if (view_report.used) view_report.rms_px = view_errors.at<double>(static_cast<int>(next++));

@@ -14,10 +14,14 @@
 #include "calibrate/floor_pose.h"
 #include "config/floor_survey_file.h"
 #include "config/input_error.h"
+#include "input_error_of.h"
 #include "temporary_folder.h"
 
 namespace occmap {
 namespace {
+
+using testing::errorOf;
+using testing::says;
 
 // A 640 x 480 camera 2.6 m up in a corner of the room, looking down across the floor.
 OpenCvParameters camera() {
@@ -166,16 +170,6 @@ TEST(PoseFromPoints, HandMeasuredPointsOnAndOffTheFloor) {
   pixels.resize(3);
   EXPECT_FALSE(poseFromPoints(truth, world, pixels, {640, 480}, error));
   EXPECT_NE(error.find("at least 4 points"), std::string::npos);
-}
-
-InputError errorOf(const std::function<void()>& load) {
-  try {
-    load();
-  } catch (const InputError& error) {
-    return error;
-  }
-  ADD_FAILURE() << "the file was accepted but should be refused";
-  return InputError("", 0, "", "");
 }
 
 TEST(MarkersFile, ReadsTheIssuesLayoutAndNamesEachSlip) {

@@ -15,28 +15,18 @@
 #include "config/calibration_file.h"
 #include "config/config.h"
 #include "config/input_error.h"
+#include "input_error_of.h"
 #include "temporary_folder.h"
 #include "tsai_xml.h"
 
 namespace occmap {
 namespace {
 
+using testing::errorOf;
+using testing::says;
+
 namespace fs = std::filesystem;
 using testing::TemporaryFolder;
-
-InputError errorOf(const std::function<void()>& load) {
-  try {
-    load();
-  } catch (const InputError& error) {
-    return error;
-  }
-  ADD_FAILURE() << "the input was accepted but should be refused";
-  return InputError("", 0, "", "");
-}
-
-bool says(const InputError& error, const std::string& text) {
-  return std::string(error.what()).find(text) != std::string::npos;
-}
 
 const cv::Mat kCameraMatrix =
     (cv::Mat_<double>(3, 3) << 1743.4, 0, 934.5, 0, 1735.1, 444.4, 0, 0, 1);

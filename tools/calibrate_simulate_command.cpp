@@ -64,10 +64,7 @@ OpenCvParameters asOpenCv(const Camera& camera, double& rms) {
   cv::Mat k, d;
   std::vector<cv::Mat> rvecs, tvecs;
   const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12);
-  cv::calibrateCamera(board_points, image_points, size, k, d, rvecs, tvecs,
-                      cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST, until);
-  rms = cv::calibrateCamera(board_points, image_points, size, k, d, rvecs, tvecs,
-                            cv::CALIB_USE_INTRINSIC_GUESS, until);
+  rms = cv::calibrateCamera(board_points, image_points, size, k, d, rvecs, tvecs, 0, until);
   OpenCvParameters p;
   p.width = size.width;
   p.height = size.height;
