@@ -11,10 +11,12 @@
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "config/calibration_file.h"
 #include "config/config.h"
 #include "config/input_error.h"
+#include "config/rig.h"
 #include "input_error_of.h"
 #include "temporary_folder.h"
 #include "tsai_xml.h"
@@ -122,6 +124,37 @@ TEST(OpenCvXml, IntrinsicsAndExtrinsicsInTwoFilesWithoutImageSize) {
   EXPECT_EQ(config.cameras[0].calibration, intrinsics);
   EXPECT_EQ(config.cameras[0].extrinsics, extrinsics);
   EXPECT_EQ(config.cameras[0].world_frame, WorldFrame::kRightHanded);
+}
+
+// A calibration without its image size takes the stream's: the rig's camera has the frames' size.
+TEST(OpenCvXml, TheImageSizeLeftOutIsTheStreams) {
+  const TemporaryFolder folder;
+  writeIntrinsics(folder.file("intr.xml"), false);
+  folder.write("extr.xml", extrinsicsXml(kRvec, kTvec));
+  const cv::Mat grey(270, 480, CV_8UC1, cv::Scalar(120));
+  std::filesystem::create_directories(folder / "frames");
+  cv::imwrite((folder / "frames" / "000000.png").string(), grey);
+  cv::imwrite((folder / "background.png").string(), grey);
+  folder.write("site.yaml",
+               "map: {origin_m: [-2, 1], cell_size_m: 0.1, width: 40, height: 40}\n"
+               "cameras:\n"
+               "  - name: C1\n"
+               "    source: files://frames/*.png\n"
+               "    calibration: {intrinsics: intr.xml, extrinsics: extr.xml}\n"
+               "    background: background.png\n");
+  const Rig rig = Rig::open(loadConfig(folder / "site.yaml"));
+  ASSERT_EQ(rig.cameras().size(), 1u);
+  const Camera& camera = *rig.cameras().front().camera;
+  EXPECT_EQ(camera.model().width(), 480);
+  EXPECT_EQ(camera.model().height(), 270);
+  // The calibration frame is the stream: a floor point lands on cv::projectPoints' pixel.
+  std::vector<cv::Point2d> expected;
+  cv::projectPoints(std::vector<cv::Point3d>{{0.5, 3.0, 0.0}}, kRvec, kTvec, kCameraMatrix,
+                    kDistortion, expected);
+  const auto pixel = camera.worldToStream({0.5, 3.0, 0.0});
+  ASSERT_TRUE(pixel);
+  EXPECT_NEAR(pixel->x(), expected[0].x, 1e-6);
+  EXPECT_NEAR(pixel->y(), expected[0].y, 1e-6);
 }
 
 TEST(OpenCvXml, SlipsAreNamedWithFileLineAndField) {
