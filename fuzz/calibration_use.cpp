@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "config/calibration_file.h"
 #include "core/camera.h"
 #include "core/carve_table.h"
 #include "fuzz/fuzz_target.h"
@@ -52,6 +53,26 @@ void useCalibration(const std::shared_ptr<const CameraModel>& model, LengthUnit 
   }
   for (const double column_height_m : {0.0, 0.3}) {
     checkTable(buildCarveTable(camera, kMap, column_height_m));
+  }
+}
+
+void useOpenCvCalibration(OpenCvParameters p) {
+  const bool size_from_stream = p.width == 0 && p.height == 0;
+  require(
+      size_from_stream || (p.width >= 1 && p.width <= 65536 && p.height >= 1 && p.height <= 65536),
+      "an accepted image is 1..65536 pixels a side, or leaves its size (both sides) out");
+  require(std::isfinite(p.fx) && p.fx > 0 && std::isfinite(p.fy) && p.fy > 0,
+          "accepted focal lengths are finite and > 0");
+  require(std::isfinite(p.cx) && std::isfinite(p.cy) && p.rvec.allFinite() && p.tvec.allFinite(),
+          "accepted parameters are finite");
+  for (const double k : p.distortion) require(std::isfinite(k), "accepted distortion is finite");
+  require(p.world_frame == WorldFrame::kRightHanded, "a file alone gives OpenCV's world frame");
+  for (const WorldFrame frame : {WorldFrame::kRightHanded, WorldFrame::kLeftHanded}) {
+    p.world_frame = frame;
+    const LoadedCalibration loaded{std::make_shared<OpenCvCamera>(p), LengthUnit::kMetre, "opencv"};
+    require(loaded.sizeFromStream() == size_from_stream,
+            "the model leaves its size to the stream exactly when the file does");
+    useCalibration(loaded.modelFor(640, 480), loaded.units);
   }
 }
 

@@ -40,15 +40,16 @@ inline std::string_view asText(Input input) {
 
 // The targets. Each one's name is its folder under fuzz/corpus/ and fuzz/regressions/ and, after
 // "fuzz_", its binary.
-bool fuzzConfig(Input input);             // config: occmapd's config file
-bool fuzzTsaiCalibration(Input input);    // tsai_calibration: ETISEO/PETS XML
-bool fuzzOpenCvCalibration(Input input);  // opencv_calibration: cv::FileStorage YAML
-bool fuzzStatusRequest(Input input);      // status_request: status_request_t, read by occmapd
-bool fuzzMapFrame(Input input);           // map_frame: map_frame_t, read by occmap view
-bool fuzzStatus(Input input);             // status: status_t, read by occmap status
-bool fuzzControlRequest(Input input);     // control_request: control_request_t, read by occmapd
-bool fuzzControlStatus(Input input);      // control_status: control_status_t, read by occmap status
-bool fuzzControlReply(Input input);       // control_reply: control_reply_t, read by occmap control
+bool fuzzConfig(Input input);                // config: occmapd's config file
+bool fuzzTsaiCalibration(Input input);       // tsai_calibration: ETISEO/PETS XML
+bool fuzzOpenCvCalibration(Input input);     // opencv_calibration: cv::FileStorage YAML
+bool fuzzOpenCvXmlCalibration(Input input);  // opencv_xml_calibration: cv::FileStorage XML
+bool fuzzStatusRequest(Input input);         // status_request: status_request_t, read by occmapd
+bool fuzzMapFrame(Input input);              // map_frame: map_frame_t, read by occmap view
+bool fuzzStatus(Input input);                // status: status_t, read by occmap status
+bool fuzzControlRequest(Input input);        // control_request: control_request_t, read by occmapd
+bool fuzzControlStatus(Input input);   // control_status: control_status_t, read by occmap status
+bool fuzzControlReply(Input input);    // control_reply: control_reply_t, read by occmap control
 bool fuzzLightingStatus(Input input);  // lighting_status: lighting_status_t, read by occmap status
 bool fuzzViewStatus(Input input);      // view_status: view_status_t, read by occmap status
 bool fuzzTracks(Input input);          // tracks: tracks_t, read by occmap status
@@ -75,6 +76,7 @@ inline constexpr Target kTargets[] = {
     {"config", fuzzConfig},
     {"tsai_calibration", fuzzTsaiCalibration},
     {"opencv_calibration", fuzzOpenCvCalibration},
+    {"opencv_xml_calibration", fuzzOpenCvXmlCalibration},
     {"status_request", fuzzStatusRequest},
     {"map_frame", fuzzMapFrame},
     {"status", fuzzStatus},

@@ -633,6 +633,64 @@ TEST(FloorBehindTheCamera, IsAWarningAndAnEmptyTableAndTheOtherCamerasMakeTheMap
   EXPECT_EQ(first.at<std::uint8_t>(15, 15), 0) << "the downward camera still clears the floor";
 }
 
+// MultiviewX's calibration: the downward camera's OpenCV intrinsics and its extrinsics in two XML
+// files, the extrinsics made in Unity's left-handed world, so that read as OpenCV's right-handed
+// frame every floor point lies at negative depth. The warning says to add world_frame:
+// left-handed; with it, the camera sees the map as its right-handed twin does.
+TEST(FloorBehindTheCamera, ALeftHandedCalibrationIsNamedAndWorldFrameLeftHandedSeesTheFloor) {
+  const Site site;
+  // The intrinsics of kDownwardYaml as cv::FileStorage writes them, without the image size (it is
+  // the stream's, 100 x 100).
+  {
+    cv::FileStorage storage(site.path("intr.xml"), cv::FileStorage::WRITE);
+    storage << "camera_matrix" << (cv::Mat_<double>(3, 3) << 200, 0, 49.5, 0, 200, 49.5, 0, 0, 1)
+            << "distortion_coefficients" << cv::Mat::zeros(1, 5, CV_64F);
+  }
+  // The downward camera (R = Rx(pi), t = (0, 0, 2)) in a left-handed world with its frame
+  // mirrored too: R' = -R diag(1, 1, -1) = Ry(pi), t' = -t, so that each floor point's camera
+  // coordinates are the negated right-handed ones, at depth -2 m. WILDTRACK's and MultiviewX's
+  // layout: each vector as numbers between blanks.
+  writeText(site.folder / "extr.xml",
+            "<?xml version=\"1.0\"?>\n<opencv_storage>\n"
+            "<rvec>0. 3.141592653589793 0.</rvec>\n<tvec>0. 0. -2.</tvec>\n"
+            "</opencv_storage>\n");
+  const std::string calibration = "{intrinsics: intr.xml, extrinsics: extr.xml}";
+  writeText(site.folder / "right.yaml", filesConfig("", "frames", calibration));
+  writeText(site.folder / "left.yaml",
+            filesConfig("    world_frame: left-handed\n", "frames", calibration));
+  writeText(site.folder / "twin.yaml", filesConfig("", "frames", "down.yml"));
+
+  // Read as right-handed: an empty table, and the warning names the likely cause and the fix.
+  Rig right = Rig::open(loadConfig(site.folder / "right.yaml"));
+  const std::vector<CarveTable> right_tables = right.buildTables(0.0);
+  ASSERT_EQ(right_tables.size(), 1u);
+  EXPECT_EQ(right_tables[0].cellsInView(), 0u);
+  ASSERT_EQ(right.warnings().size(), 1u);
+  const std::string& warning = right.warnings()[0];
+  EXPECT_NE(warning.find("camera 'down' sees no cell of the map"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("every floor point lies behind the camera (negative depth)"),
+            std::string::npos)
+      << warning;
+  EXPECT_NE(warning.find("left-handed world frame"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("add world_frame: left-handed"), std::string::npos) << warning;
+  // Not the message for a camera that is merely turned away.
+  EXPECT_EQ(warning.find("check the rotation"), std::string::npos) << warning;
+
+  // With world_frame: left-handed: no warning, and the cells in view of the right-handed twin
+  // (kDownwardYaml, the same camera in one YAML file).
+  Rig left = Rig::open(loadConfig(site.folder / "left.yaml"));
+  const std::vector<CarveTable> left_tables = left.buildTables(0.0);
+  ASSERT_EQ(left_tables.size(), 1u);
+  EXPECT_TRUE(left.warnings().empty()) << left.warnings()[0];
+  Rig twin = Rig::open(loadConfig(site.folder / "twin.yaml"));
+  const std::vector<CarveTable> twin_tables = twin.buildTables(0.0);
+  ASSERT_EQ(twin_tables.size(), 1u);
+  EXPECT_TRUE(twin.warnings().empty());
+  EXPECT_GT(twin_tables[0].cellsInView(), 400u);  // about 25 x 25 cells: 1 m square of 1.2 m
+  EXPECT_EQ(left_tables[0].cellsInView(), twin_tables[0].cellsInView());
+  EXPECT_EQ(left_tables[0].entries(), twin_tables[0].entries());
+}
+
 // ----------------------------------------------------------------------------------------------
 // A reload whose files are bad: refused, named, and the old config keeps running
 

@@ -2,10 +2,15 @@
 // reference fusion of the same images.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <numbers>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -461,6 +466,159 @@ TEST(OccmapCoverage, DrawsWhichCamerasSeeEachCell) {
   EXPECT_NE(result.out.find("by 2+:"), std::string::npos) << result.out;
   const cv::Mat picture = cv::imread((folder / "coverage.png").string());
   EXPECT_GE(picture.cols, 512);
+}
+
+// ----------------------------------------------------------------------------------------------
+// occmap project on OpenCV calibrations as WILDTRACK and MultiviewX ship them: cv::FileStorage
+// XML, intrinsics and extrinsics in two files, no image size, MultiviewX's left-handed world.
+
+const cv::Mat kXmlCameraMatrix =
+    (cv::Mat_<double>(3, 3) << 1743.4, 0, 934.5, 0, 1735.1, 444.4, 0, 0, 1);
+const cv::Mat kXmlDistortion = (cv::Mat_<double>(1, 5) << -0.43, 0.25, 0.0012, -0.0007, -0.06);
+// A camera 3 m above the floor looking down at it and forward (as in
+// opencv_two_file_calibration_test.cpp), and a floor point in front of it, inside its image.
+const cv::Vec3d kXmlRvec(-2.2, 0.15, -0.1);
+const cv::Vec3d kXmlTvec(-0.6, 1.2, 4.5);
+const cv::Point3d kXmlFloorPoint(0.5, 1.5, 0.0);
+
+// Intrinsics as cv::FileStorage writes them, without the image size (WILDTRACK's layout).
+std::filesystem::path writeXmlIntrinsics(const std::filesystem::path& file) {
+  cv::FileStorage storage(file.string(), cv::FileStorage::WRITE);
+  storage << "camera_matrix" << kXmlCameraMatrix << "distortion_coefficients" << kXmlDistortion;
+  return file;
+}
+
+// Extrinsics as WILDTRACK writes them: each vector as numbers between blanks, by hand.
+std::filesystem::path writeXmlExtrinsics(const std::filesystem::path& file, const cv::Vec3d& rvec,
+                                         const cv::Vec3d& tvec) {
+  char text[512];
+  std::snprintf(text, sizeof text,
+                "<?xml version=\"1.0\"?>\n<opencv_storage>\n<rvec>%.17g %.17g %.17g</rvec>\n"
+                "<tvec>%.17g %.17g %.17g</tvec>\n</opencv_storage>\n",
+                rvec[0], rvec[1], rvec[2], tvec[0], tvec[1], tvec[2]);
+  writeText(file, text);
+  return file;
+}
+
+cv::Point2d openCvPixel(const cv::Point3d& point, const cv::Vec3d& rvec, const cv::Vec3d& tvec) {
+  std::vector<cv::Point2d> pixels;
+  cv::projectPoints(std::vector<cv::Point3d>{point}, rvec, tvec, kXmlCameraMatrix, kXmlDistortion,
+                    pixels);
+  return pixels.at(0);
+}
+
+std::vector<std::string> worldArguments(const cv::Point3d& point) {
+  return {"--world", std::to_string(point.x), std::to_string(point.y), std::to_string(point.z)};
+}
+
+TEST(OccmapProject, OpenCvXmlIntrinsicsAndExtrinsicsGiveOpenCvsPixel) {
+  TemporaryFolder folder;
+  const std::string intrinsics = writeXmlIntrinsics(folder / "intr.xml").string();
+  const std::string extrinsics =
+      writeXmlExtrinsics(folder / "extr.xml", kXmlRvec, kXmlTvec).string();
+  std::vector<std::string> arguments = {kOccmap,        "project",      "--intrinsics",
+                                        intrinsics,     "--extrinsics", extrinsics,
+                                        "--image-size", "1920",         "1080"};
+  for (const std::string& argument : worldArguments(kXmlFloorPoint)) arguments.push_back(argument);
+  arguments.push_back("--json");
+  auto result = runCommand(arguments);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const cv::Point2d expected = openCvPixel(kXmlFloorPoint, kXmlRvec, kXmlTvec);
+  EXPECT_NEAR(jsonNumber(result.out, "u"), expected.x, 1e-6);
+  EXPECT_NEAR(jsonNumber(result.out, "v"), expected.y, 1e-6);
+  EXPECT_GT(jsonNumber(result.out, "depth"), 0.0);
+  // It lands inside the 1920 x 1080 image (else the test would say little).
+  EXPECT_GT(expected.x, 0.0);
+  EXPECT_LT(expected.x, 1920.0);
+  EXPECT_GT(expected.y, 0.0);
+  EXPECT_LT(expected.y, 1080.0);
+
+  // Without --image-size the text says that the calibration gives none, and still the pixel.
+  result = runCommand({kOccmap, "project", "--intrinsics", intrinsics, "--extrinsics", extrinsics,
+                       "--world", "0.5", "1.5", "0"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("the calibration gives no image size"), std::string::npos)
+      << result.out;
+  char u[64];
+  std::snprintf(u, sizeof u, "u %.6f", expected.x);
+  EXPECT_NE(result.out.find(u), std::string::npos) << result.out << " should hold " << u;
+  // With it, the text says whether the pixel is inside the frame.
+  result = runCommand({kOccmap, "project", "--intrinsics", intrinsics, "--extrinsics", extrinsics,
+                       "--image-size", "1920", "1080", "--world", "0.5", "1.5", "0"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("inside the 1920x1080 calibration frame"), std::string::npos)
+      << result.out;
+}
+
+// MultiviewX's extrinsics, made in Unity's left-handed world: every floor point at negative depth.
+TEST(OccmapProject, LeftHandedExtrinsicsNeedWorldFrameLeftHanded) {
+  TemporaryFolder folder;
+  // The camera of kXmlRvec, kXmlTvec written in a left-handed world (as in
+  // opencv_two_file_calibration_test.cpp): R' = -R diag(1, 1, -1), t' = -t.
+  cv::Mat r;
+  cv::Rodrigues(kXmlRvec, r);
+  const cv::Mat mirror = (cv::Mat_<double>(3, 3) << 1, 0, 0, 0, 1, 0, 0, 0, -1);
+  const cv::Mat left_r = r * (-mirror);
+  cv::Vec3d left_rvec;
+  cv::Rodrigues(left_r, left_rvec);
+  const cv::Vec3d left_tvec = -kXmlTvec;
+  const std::string intrinsics = writeXmlIntrinsics(folder / "intr.xml").string();
+  const std::string extrinsics =
+      writeXmlExtrinsics(folder / "extr.xml", left_rvec, left_tvec).string();
+  std::vector<std::string> arguments = {kOccmap,        "project",      "--intrinsics",
+                                        intrinsics,     "--extrinsics", extrinsics,
+                                        "--image-size", "1920",         "1080"};
+  for (const std::string& argument : worldArguments(kXmlFloorPoint)) arguments.push_back(argument);
+  arguments.push_back("--json");
+
+  // Read as right-handed: behind the camera, exit 3, and the hint.
+  auto result = runCommand(arguments);
+  EXPECT_EQ(result.exit_code, 3) << result.out << result.err;
+  EXPECT_TRUE(result.out.empty()) << result.out;
+  EXPECT_NE(result.err.find("behind the camera"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("--world-frame left-handed"), std::string::npos) << result.err;
+
+  // With --world-frame left-handed: cv::projectPoints' pixel, at positive depth.
+  arguments.push_back("--world-frame");
+  arguments.push_back("left-handed");
+  result = runCommand(arguments);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const cv::Point2d expected = openCvPixel(kXmlFloorPoint, left_rvec, left_tvec);
+  EXPECT_NEAR(jsonNumber(result.out, "u"), expected.x, 1e-6);
+  EXPECT_NEAR(jsonNumber(result.out, "v"), expected.y, 1e-6);
+  EXPECT_GT(jsonNumber(result.out, "depth"), 0.0);
+  // The very pixel of the right-handed camera it mirrors.
+  const cv::Point2d right = openCvPixel(kXmlFloorPoint, kXmlRvec, kXmlTvec);
+  EXPECT_NEAR(expected.x, right.x, 1e-6);
+  EXPECT_NEAR(expected.y, right.y, 1e-6);
+}
+
+TEST(OccmapProject, IntrinsicsGoWithExtrinsicsAndNotWithCalibration) {
+  TemporaryFolder folder;
+  const std::string intrinsics = writeXmlIntrinsics(folder / "intr.xml").string();
+  const std::string extrinsics =
+      writeXmlExtrinsics(folder / "extr.xml", kXmlRvec, kXmlTvec).string();
+  writeText(folder / "down.xml", kDownwardXml);
+  const std::string calibration = (folder / "down.xml").string();
+  // --calibration together with --intrinsics (and --extrinsics): usage, exit 2.
+  auto result = runCommand({kOccmap, "project", "--calibration", calibration, "--intrinsics",
+                            intrinsics, "--extrinsics", extrinsics, "--world", "0", "0", "0"});
+  EXPECT_EQ(result.exit_code, 2) << result.out << result.err;
+  EXPECT_TRUE(result.out.empty()) << result.out;
+  EXPECT_NE(result.err.find("--intrinsics"), std::string::npos) << result.err;
+  result = runCommand({kOccmap, "project", "--calibration", calibration, "--intrinsics", intrinsics,
+                       "--world", "0", "0", "0"});
+  EXPECT_EQ(result.exit_code, 2) << result.out << result.err;
+  // --intrinsics without --extrinsics, and the other way round.
+  result =
+      runCommand({kOccmap, "project", "--intrinsics", intrinsics, "--world", "0.5", "1.5", "0"});
+  EXPECT_EQ(result.exit_code, 2) << result.out << result.err;
+  EXPECT_TRUE(result.out.empty()) << result.out;
+  EXPECT_NE(result.err.find("--extrinsics"), std::string::npos) << result.err;
+  result =
+      runCommand({kOccmap, "project", "--extrinsics", extrinsics, "--world", "0.5", "1.5", "0"});
+  EXPECT_EQ(result.exit_code, 2) << result.out << result.err;
+  EXPECT_NE(result.err.find("--intrinsics"), std::string::npos) << result.err;
 }
 
 }  // namespace
