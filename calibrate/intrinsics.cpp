@@ -63,6 +63,20 @@ const char* gridCellName(int cell) {
   return kNames.at(static_cast<std::size_t>(cell));
 }
 
+OpenCvParameters openCvIntrinsics(const cv::Mat& camera_matrix, const cv::Mat& distortion,
+                                  cv::Size image_size) {
+  OpenCvParameters camera;
+  camera.width = image_size.width;
+  camera.height = image_size.height;
+  camera.fx = camera_matrix.at<double>(0, 0);
+  camera.fy = camera_matrix.at<double>(1, 1);
+  camera.cx = camera_matrix.at<double>(0, 2);
+  camera.cy = camera_matrix.at<double>(1, 2);
+  for (std::size_t i = 0; i < 5; ++i)
+    camera.distortion[i] = distortion.at<double>(static_cast<int>(i));
+  return camera;
+}
+
 IntrinsicsResult calibrateIntrinsics(const BoardSpec& spec, const std::vector<BoardCorners>& views,
                                      cv::Size image_size) {
   IntrinsicsResult result;
@@ -138,16 +152,7 @@ IntrinsicsResult calibrateIntrinsics(const BoardSpec& spec, const std::vector<Bo
   report.cx_sigma_px = intrinsic_sigmas.at<double>(2);
   report.cy_sigma_px = intrinsic_sigmas.at<double>(3);
 
-  OpenCvParameters camera;
-  camera.width = image_size.width;
-  camera.height = image_size.height;
-  camera.fx = camera_matrix.at<double>(0, 0);
-  camera.fy = camera_matrix.at<double>(1, 1);
-  camera.cx = camera_matrix.at<double>(0, 2);
-  camera.cy = camera_matrix.at<double>(1, 2);
-  for (int i = 0; i < 5; ++i)
-    camera.distortion[static_cast<std::size_t>(i)] = distortion.at<double>(i);
-  result.camera = camera;
+  result.camera = openCvIntrinsics(camera_matrix, distortion, image_size);
   return result;
 }
 

@@ -51,6 +51,11 @@ struct IntrinsicsResult {
   IntrinsicsReport report;
 };
 
+// OpenCV's camera matrix and 5 distortion coefficients (k1 k2 p1 p2 k3) for pictures of
+// `image_size`, as occmap holds them (rvec and tvec zero).
+OpenCvParameters openCvIntrinsics(const cv::Mat& camera_matrix, const cv::Mat& distortion,
+                                  cv::Size image_size);
+
 // The camera's intrinsics from its pictures of the board (`views`: the corners found in each,
 // empty where none were), all of `image_size`, with OpenCV's 5-coefficient model (k1 k2 p1 p2 k3)
 // and no skew: cv::calibrateCamera on each view's own corners, so that partly seen ChArUco boards

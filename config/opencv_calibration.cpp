@@ -298,27 +298,26 @@ StorageNode readStorage(std::string_view text, const std::string& file) {
   return content.starts_with('<') ? readXmlStorage(text, file) : readYamlStorage(text, file);
 }
 
-}  // namespace
-
-OpenCvParameters parseOpenCvStorage(std::string_view text, const std::string& file_name) {
-  const StorageNode root = readStorage(text, file_name);
-  const OpenCvReader reader(root, file_name, Part::kWhole);
+// Everything from one file.
+OpenCvParameters wholeCalibration(const StorageNode& root, const std::string& file) {
+  const OpenCvReader reader(root, file, Part::kWhole);
   OpenCvParameters p;
   reader.readIntrinsics(p);
   reader.readExtrinsics(p);
   return p;
 }
 
+}  // namespace
+
+OpenCvParameters parseOpenCvStorage(std::string_view text, const std::string& file_name) {
+  return wholeCalibration(readStorage(text, file_name), file_name);
+}
+
 OpenCvParameters parseOpenCvYaml(std::string_view text, const std::string& file_name) {
   if (firstContent(text).empty()) {
     throw InputError(file_name, 0, "", "is empty; expected an OpenCV calibration in YAML");
   }
-  const StorageNode root = readYamlStorage(text, file_name);
-  const OpenCvReader reader(root, file_name, Part::kWhole);
-  OpenCvParameters p;
-  reader.readIntrinsics(p);
-  reader.readExtrinsics(p);
-  return p;
+  return wholeCalibration(readYamlStorage(text, file_name), file_name);
 }
 
 OpenCvParameters loadOpenCvYaml(const std::filesystem::path& file) {

@@ -20,6 +20,7 @@
 #include "config/calibration_file.h"
 #include "core/carve_table.h"
 #include "core/reference_fusion.h"
+#include "left_handed_extrinsics.h"
 #include "sim_reference.h"
 #include "sim_room_config.h"
 #include "tsai_xml.h"
@@ -553,15 +554,7 @@ TEST(OccmapProject, OpenCvXmlIntrinsicsAndExtrinsicsGiveOpenCvsPixel) {
 // MultiviewX's extrinsics, made in Unity's left-handed world: every floor point at negative depth.
 TEST(OccmapProject, LeftHandedExtrinsicsNeedWorldFrameLeftHanded) {
   TemporaryFolder folder;
-  // The camera of kXmlRvec, kXmlTvec written in a left-handed world (as in
-  // opencv_two_file_calibration_test.cpp): R' = -R diag(1, 1, -1), t' = -t.
-  cv::Mat r;
-  cv::Rodrigues(kXmlRvec, r);
-  const cv::Mat mirror = (cv::Mat_<double>(3, 3) << 1, 0, 0, 0, 1, 0, 0, 0, -1);
-  const cv::Mat left_r = r * (-mirror);
-  cv::Vec3d left_rvec;
-  cv::Rodrigues(left_r, left_rvec);
-  const cv::Vec3d left_tvec = -kXmlTvec;
+  const auto [left_rvec, left_tvec] = testing::leftHandedExtrinsics(kXmlRvec, kXmlTvec);
   const std::string intrinsics = writeXmlIntrinsics(folder / "intr.xml").string();
   const std::string extrinsics =
       writeXmlExtrinsics(folder / "extr.xml", left_rvec, left_tvec).string();

@@ -18,6 +18,7 @@
 #include "config/input_error.h"
 #include "config/rig.h"
 #include "input_error_of.h"
+#include "left_handed_extrinsics.h"
 #include "temporary_folder.h"
 #include "tsai_xml.h"
 
@@ -231,16 +232,7 @@ TEST(OpenCvXml, SlipsAreNamedWithFileLineAndField) {
 TEST(OpenCvXml, LeftHandedWorldIsTheMirroredCamera) {
   const TemporaryFolder folder;
   const fs::path intrinsics = writeIntrinsics(folder.file("intr.xml"), true);
-  // The camera of kRvec, kTvec as written in a left-handed world (the floor's z mirrored,
-  // M = diag(1, 1, -1)) with its frame mirrored too: R' = -R M (a proper rotation, as det(-M) = 1)
-  // and t' = -t, so that R' Xw + t' = -(R Xw + t) for every floor point, at negative depth.
-  cv::Mat r;
-  cv::Rodrigues(kRvec, r);
-  const cv::Mat mirror = (cv::Mat_<double>(3, 3) << 1, 0, 0, 0, 1, 0, 0, 0, -1);
-  const cv::Mat left_r = r * (-mirror);
-  cv::Vec3d left_rvec;
-  cv::Rodrigues(left_r, left_rvec);
-  const cv::Vec3d left_tvec = -kTvec;
+  const auto [left_rvec, left_tvec] = testing::leftHandedExtrinsics(kRvec, kTvec);
   const fs::path extrinsics = folder.write("extr.xml", extrinsicsXml(left_rvec, left_tvec));
 
   // Read as right-handed, every floor point is behind the camera ...

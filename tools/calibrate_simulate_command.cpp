@@ -10,6 +10,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "calibrate/board.h"
+#include "calibrate/intrinsics.h"
 #include "capture/image_file.h"
 #include "capture/sim/target_view.h"
 #include "capture/sim_source.h"
@@ -65,14 +66,7 @@ OpenCvParameters asOpenCv(const Camera& camera, double& rms) {
   std::vector<cv::Mat> rvecs, tvecs;
   const cv::TermCriteria until(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 200, 1e-12);
   rms = cv::calibrateCamera(board_points, image_points, size, k, d, rvecs, tvecs, 0, until);
-  OpenCvParameters p;
-  p.width = size.width;
-  p.height = size.height;
-  p.fx = k.at<double>(0, 0);
-  p.fy = k.at<double>(1, 1);
-  p.cx = k.at<double>(0, 2);
-  p.cy = k.at<double>(1, 2);
-  for (std::size_t i = 0; i < 5; ++i) p.distortion[i] = d.at<double>(static_cast<int>(i));
+  OpenCvParameters p = openCvIntrinsics(k, d, size);
   const Pose& pose = camera.model().pose();
   p.rvec = rodriguesFromRotation(pose.rotation);
   p.tvec = pose.translation * camera.metresPerUnit();
