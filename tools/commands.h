@@ -22,6 +22,7 @@ Command addControlCommand(CLI::App& app);
 Command addRecordCommand(CLI::App& app);
 Command addScoreCommand(CLI::App& app);
 Command addTruthCommand(CLI::App& app);
+Command addMergeCommand(CLI::App& app);
 // occmap calibrate and its steps (each adds itself to `calibrate`).
 Command addCalibrateCommand(CLI::App& app);
 Command addCalibrateBoardCommand(CLI::App& calibrate);

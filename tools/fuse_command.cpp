@@ -20,6 +20,7 @@
 #include "core/fusion_kernel.h"
 #include "core/repose.h"
 #include "tools/commands.h"
+#include "tools/map_files.h"
 #include "tools/offline_footprints.h"
 #include "tools/pictures.h"
 #include "tools/progress.h"
@@ -40,63 +41,6 @@ struct FuseOptions {
   std::string tracks;      // CSV of the people followed (occmap track)
   const char* command = "fuse";
 };
-
-// map_ + six or more digits + .png: the names this command writes.
-bool isMapFile(const fs::path& path) {
-  const std::string name = path.filename().string();
-  constexpr std::string_view kPrefix = "map_", kSuffix = ".png";
-  if (name.size() < kPrefix.size() + 6 + kSuffix.size() || !name.starts_with(kPrefix) ||
-      !name.ends_with(kSuffix)) {
-    return false;
-  }
-  const std::string_view digits(name.data() + kPrefix.size(),
-                                name.size() - kPrefix.size() - kSuffix.size());
-  return std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
-}
-
-// The output folder holds our maps and nothing else: refuse one with other files in it, and old
-// maps unless the user said to replace them. Only looks: returns the old maps to remove, and
-// nothing is changed on disk until the whole rig has been checked too (makeOutput).
-std::vector<fs::path> checkOutput(const fs::path& out, bool overwrite) {
-  std::error_code error;
-  if (!fs::exists(out, error)) return {};
-  if (!fs::is_directory(out, error)) {
-    throw InputError(out.string(), 0, "--out", "is not a folder; give a new or empty folder");
-  }
-  std::vector<fs::path> old_maps;
-  for (const fs::directory_entry& entry : fs::directory_iterator(out)) {
-    if (!isMapFile(entry.path())) {
-      throw InputError(out.string(), 0, "--out",
-                       "holds other files (" + entry.path().filename().string() +
-                           "); occmap fuse writes only map_NNNNNN.png files: give a new or empty "
-                           "folder");
-    }
-    old_maps.push_back(entry.path());
-  }
-  if (!old_maps.empty() && !overwrite) {
-    throw InputError(out.string(), 0, "--out",
-                     "already holds " + std::to_string(old_maps.size()) +
-                         " maps from an earlier run; pass --overwrite to replace them, or give "
-                         "another folder");
-  }
-  return old_maps;
-}
-
-// The folder as checkOutput found it, made ready: created, or emptied of the old maps.
-void makeOutput(const fs::path& out, const std::vector<fs::path>& old_maps) {
-  std::error_code error;
-  if (!fs::exists(out, error) && !fs::create_directories(out, error)) {
-    throw InputError(out.string(), 0, "--out",
-                     "cannot create the output folder: " + error.message());
-  }
-  for (const fs::path& map : old_maps) fs::remove(map);
-}
-
-Image mapImage(const OccupancyMap& map) {
-  Image image(map.geometry.width, map.geometry.height);
-  for (std::size_t i = 0; i < map.cells.size(); ++i) image.data()[i] = greyLevel(map.cells[i]);
-  return image;
-}
 
 // Where the cells a camera sees clearly and the map does not free lie: under light in part of the
 // room (a lamp, the sun, a shadow: sim::LightPatch), else within kNear of an object's footprint
@@ -215,7 +159,7 @@ int run(const FuseOptions& o) {
   // calibration, source or background must not leave an empty or emptied folder behind.
   const bool write_maps = !o.out.empty();
   const std::vector<fs::path> old_maps =
-      write_maps ? checkOutput(out, o.overwrite) : std::vector<fs::path>{};
+      write_maps ? checkOutput(out, o.overwrite, o.command) : std::vector<fs::path>{};
   PreparedRig prepared = prepareRigWithProgress(config, o.command);
   if (write_maps) makeOutput(out, old_maps);
   Rig& rig = prepared.rig;

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   add(tools::addRecordCommand, "record");
   add(tools::addScoreCommand, "score");
   add(tools::addTruthCommand, "truth");
+  add(tools::addMergeCommand, "merge");
   add(tools::addCalibrateCommand, "calibrate");
   try {
     app.parse(argc, argv);
