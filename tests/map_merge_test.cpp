@@ -3,6 +3,8 @@
 // from the very same recorded frames, in floor and in column mode: equal cell for cell.
 #include "core/map_merge.h"
 
+#include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -12,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "command_runner.h"
+#include "core/merge_inputs.h"
 #include "temporary_folder.h"
 
 namespace occmap {
@@ -78,6 +81,56 @@ TEST(MapMerger, InputsOfAnotherGeometryAreResampled) {
   // Maps of the wrong size are refused, not read past their end.
   const OccupancyMap wrong(strip(2));
   EXPECT_THROW(merger.merge({&wrong}, merged), std::invalid_argument);
+}
+
+TEST(MergeInputs, AnInputStaleByMaxAgeIsDownAndFreshAgainWithItsNextMap) {
+  MergeInputs inputs(2, 0.150);
+  EXPECT_FALSE(inputs.fresh(0));  // nothing heard yet
+  // Both at 30 Hz, 30 ms on the way; input 1 stops after its map of t = 1 s and comes back at 2 s.
+  for (int frame = 0; frame <= 90; ++frame) {
+    const double t = frame / 30.0;
+    inputs.heard(0, t, t + 0.030);
+    if (frame <= 30 || frame >= 60) inputs.heard(1, t, t + 0.030);
+    if (frame == 33) {
+      EXPECT_TRUE(inputs.fresh(1)) << t;  // 0.1 s behind
+    } else if (frame == 36) {
+      EXPECT_FALSE(inputs.fresh(1)) << t;  // 0.2 s behind: down
+    } else if (frame == 60) {
+      EXPECT_TRUE(inputs.fresh(1)) << t;  // its next map
+    }
+    EXPECT_TRUE(inputs.fresh(0)) << t;
+  }
+  // A map reordered on the way does not make the input older.
+  inputs.heard(1, 2.5, 3.1);
+  EXPECT_EQ(*inputs.captureS(1), 3.0);
+}
+
+TEST(MergeInputs, ClockOffsetsAreFoundFromTheLeastLag) {
+  MergeInputs inputs(2, 0.150);
+  // Input 1's clock runs 25 ms ahead; both take 20 to 45 ms from capture to the node.
+  std::uint32_t state = 1;
+  const auto latency = [&] {
+    state = state * 1664525u + 1013904223u;
+    return 0.020 + 0.025 * (state >> 8) / double{1u << 24};
+  };
+  for (int frame = 0; frame < 300; ++frame) {
+    const double t = frame / 30.0;
+    inputs.heard(0, t, t + latency());
+    inputs.heard(1, t + 0.025, t + latency());
+  }
+  // Ahead, input 1's maps seem to arrive 25 ms sooner: its lag is the smaller, and the offsets are
+  // counted from it, so input 0 shows the 25 ms (the offsets say how far apart the clocks are).
+  EXPECT_NEAR(*inputs.clockOffsetS(1), 0.0, 1e-12);
+  EXPECT_NEAR(*inputs.clockOffsetS(0), 0.025, 0.003);
+  EXPECT_GT(std::abs(*inputs.clockOffsetS(0) - *inputs.clockOffsetS(1)),
+            MergeInputs::kOffsetWarningS);
+  // Its clock is corrected (stepped back by 25 ms): the estimate follows at 1 ms a second.
+  for (int frame = 300; frame < 300 + 40 * 30; ++frame) {
+    const double t = frame / 30.0;
+    inputs.heard(0, t, t + latency());
+    inputs.heard(1, t, t + latency());
+  }
+  EXPECT_NEAR(*inputs.clockOffsetS(0) - *inputs.clockOffsetS(1), 0.0, 0.003);
 }
 
 // The replay config with only the cameras named, and the carving height given.
