@@ -132,6 +132,59 @@ cv::Ptr<cv::aruco::CharucoBoard> charucoBoard(const BoardSpec& spec) {
                                          cv::aruco::getPredefinedDictionary(spec.dictionary));
 }
 
+// Only the markers that lie where the board puts them: markers of the board's dictionary elsewhere
+// in the picture (the floor's, for calibrating the pose, often are) with ids the board uses would
+// otherwise be taken for the board's own, and every corner beside them misplaced (seen: a 7 x 5
+// board in a room with markers 0 to 10 on the floor, calibrated to an RMS of 42 px). The markers'
+// centres are mapped from the board into the picture by one homography, found by RANSAC; a marker
+// more than half a marker's side off it is not the board's. The lens bends the board's picture
+// less than that over a board held up in front of a camera.
+void keepTheBoardsMarkers(const cv::aruco::CharucoBoard& board,
+                          std::vector<std::vector<cv::Point2f>>& corners, std::vector<int>& ids) {
+  std::vector<cv::Point2f> on_board;
+  std::vector<cv::Point2f> in_picture;
+  std::vector<std::size_t> kept;
+  std::vector<double> sides;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    const auto at = std::find(board.ids.begin(), board.ids.end(), ids[i]);
+    if (at == board.ids.end()) continue;  // not a marker of this board at all
+    const std::vector<cv::Point3f>& marker =
+        board.objPoints[static_cast<std::size_t>(at - board.ids.begin())];
+    cv::Point2f centre(0, 0), seen(0, 0);
+    for (std::size_t c = 0; c < 4; ++c) {
+      centre += cv::Point2f(marker[c].x, marker[c].y) * 0.25f;
+      seen += corners[i][c] * 0.25f;
+    }
+    on_board.push_back(centre);
+    in_picture.push_back(seen);
+    kept.push_back(i);
+    sides.push_back(cv::norm(corners[i][1] - corners[i][0]));
+  }
+  std::vector<std::vector<cv::Point2f>> board_corners;
+  std::vector<int> board_ids;
+  if (kept.size() >= 5) {
+    std::nth_element(sides.begin(), sides.begin() + static_cast<std::ptrdiff_t>(sides.size() / 2),
+                     sides.end());
+    const double threshold = std::max(2.0, 0.5 * sides[sides.size() / 2]);
+    std::vector<unsigned char> inlier;
+    cv::findHomography(on_board, in_picture, cv::RANSAC, threshold, inlier);
+    for (std::size_t j = 0; j < kept.size(); ++j) {
+      if (inlier.empty() || inlier[j] != 0) {
+        board_corners.push_back(corners[kept[j]]);
+        board_ids.push_back(ids[kept[j]]);
+      }
+    }
+  } else {
+    // Too few to tell: as they are.
+    for (const std::size_t i : kept) {
+      board_corners.push_back(corners[i]);
+      board_ids.push_back(ids[i]);
+    }
+  }
+  corners.swap(board_corners);
+  ids.swap(board_ids);
+}
+
 BoardCorners findCharucoCorners(const BoardSpec& spec, const cv::Mat& grey) {
   const cv::Ptr<cv::aruco::CharucoBoard> board = charucoBoard(spec);
   cv::Ptr<cv::aruco::DetectorParameters> parameters = cv::aruco::DetectorParameters::create();
@@ -141,6 +194,8 @@ BoardCorners findCharucoCorners(const BoardSpec& spec, const cv::Mat& grey) {
   std::vector<int> marker_ids;
   cv::aruco::detectMarkers(grey, board->dictionary, marker_corners, marker_ids, parameters,
                            rejected);
+  if (marker_ids.empty()) return {};
+  keepTheBoardsMarkers(*board, marker_corners, marker_ids);
   if (marker_ids.empty()) return {};
   // Markers missed at first are looked for again where the board says they must be.
   cv::aruco::refineDetectedMarkers(grey, board, marker_corners, marker_ids, rejected);

@@ -147,6 +147,27 @@ TEST(CalibrationWorkflow, TheSimulatedRoomCalibratedWithOccmapMapsAsTheTrueCalib
   EXPECT_GE(share, 99.5);
 }
 
+// A board whose markers share ids with markers on the floor (a 9 x 7 board uses ids 0 to 30 of
+// DICT_4X4_50, the room's floor 20 to 30): the floor's are not taken for the board's.
+TEST(CalibrationWorkflow, MarkersOfTheBoardsDictionaryElsewhereAreNotTheBoards) {
+  const testing::TemporaryFolder folder;
+  const std::string board = "charuco:9x7:0.03:0.022:DICT_4X4_50";
+  auto result = runCommand({kOccmap, "calibrate", "simulate", "--config", kMarkersConfig,
+                            "--camera", "c0", "--board", board, "--out", (folder / "c0").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  result = runCommand({kOccmap, "calibrate", "intrinsics", "--images",
+                       (folder / "c0" / "board_*.png").string(), "--board", board, "--out",
+                       (folder / "c0.yaml").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
+  const double rms = number(result.out, "RMS reprojection error ([0-9.]+) px");
+  const OpenCvParameters truth = loadOpenCvYaml(folder / "c0" / "true-opencv.yaml");
+  const OpenCvParameters found = loadOpenCvYaml(folder / "c0.yaml");
+  std::printf("9 x 7 board among the floor's markers: RMS %.3f px, fx %.3f (true %.3f)\n", rms,
+              found.fx, truth.fx);
+  EXPECT_LT(rms, 0.3);
+  EXPECT_LT(std::abs(found.fx / truth.fx - 1), 0.005);
+}
+
 // Bad input to `occmap calibrate pose` and `check`: exit 2 and a message that names the file and
 // says what to do.
 TEST(CalibrationWorkflow, BadInputIsRefusedWithWhatToDo) {
