@@ -1,0 +1,126 @@
+#include "daemon/merge_node.h"
+
+#include <utility>
+
+#include "base/clock.h"
+
+namespace occmap {
+namespace {
+
+std::vector<std::string> namesOf(const std::vector<MergeInputSpec>& inputs) {
+  std::vector<std::string> names;
+  for (const MergeInputSpec& input : inputs) names.push_back(input.name);
+  return names;
+}
+
+bool sameGeometry(const MapGeometry& a, const MapGeometry& b) {
+  return a.origin_x_m == b.origin_x_m && a.origin_y_m == b.origin_y_m &&
+         a.cell_size_m == b.cell_size_m && a.width == b.width && a.height == b.height;
+}
+
+}  // namespace
+
+MergeNode::MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInputSpec> inputs,
+                     double max_age_s, std::string output_channel, MapEncoding encoding)
+    : bus_(bus),
+      merged_geometry_(merged),
+      freshness_(inputs.size(), max_age_s),
+      output_channel_(std::move(output_channel)),
+      frame_(merged, inputs.size()),
+      encoder_(merged, namesOf(inputs), encoding) {
+  for (MergeInputSpec& spec : inputs)
+    inputs_.push_back(Input{std::move(spec), {}, -1, 0, 0, 0, 0, {}});
+  for (std::size_t k = 0; k < inputs_.size(); ++k) {
+    bus_.subscribe(inputs_[k].spec.channel,
+                   [this, k](const std::uint8_t* data, std::size_t size, std::int64_t recv_utime) {
+                     heard(k, data, size, recv_utime);
+                   });
+  }
+}
+
+int MergeNode::spinOnce(int timeout_ms) { return bus_.handleTimeout(timeout_ms); }
+
+void MergeNode::heard(std::size_t k, const std::uint8_t* data, std::size_t size,
+                      std::int64_t recv_utime) {
+  Input& input = inputs_[k];
+  const DecodedMap& decoded = decoder_.decode(data, size);
+  if (!decoded.ok()) {
+    ++input.refused;
+    input.last_error = decoded.error;
+    return;
+  }
+  if (input.seq >= 0 && decoded.seq > input.seq + 1) {
+    input.lost += static_cast<std::uint64_t>(decoded.seq - input.seq - 1);
+  }
+  if (input.seq >= 0 && decoded.seq <= input.seq) return;  // old or repeated: nothing new
+  const bool new_geometry = !input.map || !sameGeometry(input.map->geometry, decoded.geometry);
+  if (new_geometry) input.map.emplace(decoded.geometry);
+  for (std::size_t i = 0; i < decoded.cells.size(); ++i) {
+    input.map->cells[i] = static_cast<CellState>(decoded.cells[i]);
+  }
+  input.seq = decoded.seq;
+  input.capture_utime = decoded.utime;
+  ++input.maps;
+  freshness_.heard(k, static_cast<double>(decoded.utime) * 1e-6,
+                   static_cast<double>(recv_utime) * 1e-6);
+  if (new_geometry || !merger_) {
+    // Inputs not heard from yet stand in with the merged geometry; they are down until heard.
+    std::vector<MapGeometry> geometries;
+    for (const Input& other : inputs_) {
+      geometries.push_back(other.map ? other.map->geometry : merged_geometry_);
+    }
+    merger_ = std::make_unique<MapMerger>(merged_geometry_, geometries);
+  }
+  if (decoded.utime > last_published_utime_) mergeAndPublish(recv_utime);
+}
+
+void MergeNode::mergeAndPublish(std::int64_t newest_arrival_utime) {
+  fresh_maps_.assign(inputs_.size(), nullptr);
+  for (std::size_t k = 0; k < inputs_.size(); ++k) {
+    const bool fresh = freshness_.fresh(k);
+    if (fresh) fresh_maps_[k] = &*inputs_[k].map;
+    CameraContribution& part = frame_.cameras[k];
+    part.state = !freshness_.heardFrom(k) ? CameraState::kStarting
+                 : fresh                  ? CameraState::kStreaming
+                                          : CameraState::kDown;
+    part.used = fresh;
+    part.sequence = fresh ? inputs_[k].seq : -1;
+    part.capture_time_us = fresh ? inputs_[k].capture_utime : 0;
+  }
+  merger_->merge(fresh_maps_, frame_.map);
+  const std::int64_t newest = static_cast<std::int64_t>(*freshness_.newestCaptureS() * 1e6 + 0.5);
+  frame_.utime = std::max(newest, last_published_utime_ + 1);
+  frame_.seq = static_cast<std::int64_t>(published_ + publish_errors_);
+  const std::span<const std::uint8_t> message = encoder_.encode(frame_);
+  if (message.empty() || !bus_.publish(output_channel_, message)) {
+    ++publish_errors_;
+    return;
+  }
+  ++published_;
+  last_published_utime_ = frame_.utime;
+  last_latency_s_ = static_cast<double>(hostTimeMicroseconds() - newest_arrival_utime) * 1e-6;
+}
+
+std::vector<MergeNode::InputStatus> MergeNode::inputs() const {
+  std::vector<InputStatus> status;
+  const std::optional<double> newest = freshness_.newestCaptureS();
+  for (std::size_t k = 0; k < inputs_.size(); ++k) {
+    const Input& input = inputs_[k];
+    InputStatus s;
+    s.name = input.spec.name;
+    s.channel = input.spec.channel;
+    s.fresh = freshness_.fresh(k);
+    s.maps = input.maps;
+    s.lost = input.lost;
+    s.refused = input.refused;
+    s.last_error = input.last_error;
+    if (const std::optional<double> capture = freshness_.captureS(k); capture && newest) {
+      s.age_s = *newest - *capture;
+    }
+    s.clock_offset_s = freshness_.clockOffsetS(k);
+    status.push_back(std::move(s));
+  }
+  return status;
+}
+
+}  // namespace occmap

@@ -1,0 +1,88 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/map_frame.h"
+#include "core/map_merge.h"
+#include "core/merge_inputs.h"
+#include "transport/bus.h"
+#include "transport/map_codec.h"
+
+namespace occmap {
+
+// A merge node (issue 16, docs/merge.md): it hears the maps of several camera PCs' occmapd, each on
+// its own channel, and publishes one map of the whole floor, merged by the paper's rule
+// (core/map_merge.h) from the inputs that are fresh (core/merge_inputs.h); a stale or silent input
+// counts as down and its cells turn unseen.
+//
+// A merged map goes out each time an input's map brings a capture newer than any merged before, so
+// that maps come at the inputs' rate and a change reaches the network with the map that shows it.
+// Its utime is that newest capture; its "cameras" are the inputs (name, streaming or down, used
+// when fresh, the input's map seq and capture time), so `occmap view` and any subscriber see which
+// parts of the floor come from where. Everything runs on the thread that calls spinOnce().
+struct MergeInputSpec {
+  std::string name;
+  std::string channel;
+};
+
+class MergeNode {
+ public:
+  MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInputSpec> inputs,
+            double max_age_s, std::string output_channel, MapEncoding encoding);
+
+  // Handles what arrives within `timeout_ms`: > 0 handled, 0 timed out, < 0 a bus error.
+  int spinOnce(int timeout_ms);
+
+  struct InputStatus {
+    std::string name;
+    std::string channel;
+    bool fresh = false;
+    std::uint64_t maps = 0;     // maps heard
+    std::uint64_t lost = 0;     // gaps in the input's seq
+    std::uint64_t refused = 0;  // messages that did not decode, or of a map too large
+    std::string last_error;
+    std::optional<double> age_s;           // behind the newest input's newest capture
+    std::optional<double> clock_offset_s;  // against the other inputs (MergeInputs)
+  };
+  std::vector<InputStatus> inputs() const;
+  std::uint64_t published() const { return published_; }
+  std::uint64_t publishErrors() const { return publish_errors_; }
+  // From the newest input map's arrival to the merged map's publish, the last one (seconds).
+  double lastLatencyS() const { return last_latency_s_; }
+  // The map last published.
+  const MapFrame& lastMap() const { return frame_; }
+
+ private:
+  struct Input {
+    MergeInputSpec spec;
+    std::optional<OccupancyMap> map;  // the newest map, of its own geometry
+    std::int64_t seq = -1;
+    std::int64_t capture_utime = 0;
+    std::uint64_t maps = 0, lost = 0, refused = 0;
+    std::string last_error;
+  };
+
+  void heard(std::size_t k, const std::uint8_t* data, std::size_t size, std::int64_t recv_utime);
+  void mergeAndPublish(std::int64_t newest_arrival_utime);
+
+  Bus& bus_;
+  MapGeometry merged_geometry_;
+  std::vector<Input> inputs_;
+  MergeInputs freshness_;
+  std::string output_channel_;
+  MapDecoder decoder_;
+  std::unique_ptr<MapMerger> merger_;  // rebuilt when an input's geometry is first known or changes
+  std::vector<const OccupancyMap*> fresh_maps_;
+  MapFrame frame_;
+  MapEncoder encoder_;
+  std::int64_t last_published_utime_ = 0;
+  std::uint64_t published_ = 0;
+  std::uint64_t publish_errors_ = 0;
+  double last_latency_s_ = 0;
+};
+
+}  // namespace occmap

@@ -1,0 +1,146 @@
+// A merge node (daemon/merge_node.h) between camera PCs' daemons and its subscribers, on an
+// in-memory bus: what it publishes is the rule's merge of the fresh inputs' maps, an input that
+// stops counts as down (its cells unseen) once stale and is merged again with its next map, and
+// inputs of another geometry are resampled.
+#include "daemon/merge_node.h"
+
+#include <memory>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "transport/map_codec.h"
+#include "transport/memory_bus.h"
+
+namespace occmap {
+namespace {
+
+constexpr CellState F = CellState::kFree;
+constexpr CellState O = CellState::kOccupied;
+constexpr CellState U = CellState::kUnseen;
+
+MapGeometry strip(double origin_x, double cell, int width) {
+  return MapGeometry{origin_x, 0.0, cell, width, 1};
+}
+
+// A camera PC's daemon: publishes maps of its geometry on its channel.
+class CameraPc {
+ public:
+  CameraPc(MemoryNetwork& network, std::string channel, const MapGeometry& geometry)
+      : bus_(network.connect()),
+        channel_(std::move(channel)),
+        frame_(geometry, 1),
+        encoder_(geometry, {"c0"}, MapEncoding::kZstd) {}
+
+  void publish(const std::vector<CellState>& cells, double capture_s) {
+    frame_.map.cells = cells;
+    frame_.utime = static_cast<std::int64_t>(capture_s * 1e6);
+    frame_.seq = seq_++;
+    ASSERT_TRUE(bus_->publish(channel_, encoder_.encode(frame_)));
+  }
+
+ private:
+  std::unique_ptr<MemoryBus> bus_;
+  std::string channel_;
+  MapFrame frame_;
+  MapEncoder encoder_;
+  std::int64_t seq_ = 0;
+};
+
+// What subscribers hear on the merged channel.
+class Listener {
+ public:
+  explicit Listener(MemoryNetwork& network) : bus_(network.connect()) {
+    bus_->subscribe("MERGED", [this](const std::uint8_t* data, std::size_t size, std::int64_t) {
+      const DecodedMap& map = decoder_.decode(data, size);
+      ASSERT_TRUE(map.ok()) << map.error;
+      last_ = map;
+      ++heard_;
+    });
+  }
+  void drain() {
+    while (bus_->handleTimeout(0) > 0) {
+    }
+  }
+  const DecodedMap& last() const { return last_; }
+  int heard() const { return heard_; }
+  std::vector<CellState> cells() const {
+    std::vector<CellState> cells;
+    for (const std::uint8_t c : last_.cells) cells.push_back(static_cast<CellState>(c));
+    return cells;
+  }
+
+ private:
+  std::unique_ptr<MemoryBus> bus_;
+  MapDecoder decoder_;
+  DecodedMap last_;
+  int heard_ = 0;
+};
+
+void handleAll(MergeNode& node) {
+  while (node.spinOnce(0) > 0) {
+  }
+}
+
+TEST(MergeNode, PublishesTheFreshInputsMergedAndTurnsAStaleOneUnseen) {
+  MemoryNetwork network;
+  const MapGeometry g = strip(0, 1, 4);
+  auto node_bus = network.connect();
+  MergeNode node(*node_bus, g, {{"west", "MAP_WEST"}, {"east", "MAP_EAST"}}, 0.150, "MERGED",
+                 MapEncoding::kZstd);
+  Listener listener(network);
+  CameraPc west(network, "MAP_WEST", g);
+  CameraPc east(network, "MAP_EAST", g);
+
+  west.publish({F, O, U, U}, 10.000);
+  handleAll(node);
+  listener.drain();
+  EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, U, U}));  // east not heard: down
+  east.publish({O, U, F, O}, 10.010);
+  handleAll(node);
+  listener.drain();
+  EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, F, O}));
+  EXPECT_EQ(listener.last().utime, 10'010'000);
+  ASSERT_EQ(listener.last().cameras.size(), 2u);
+  EXPECT_EQ(listener.last().cameras[1].name, "east");
+  EXPECT_EQ(listener.last().cameras[1].state, CameraState::kStreaming);
+
+  // East stops; west goes on at 30 Hz: east is down once 0.15 s behind, its cells unseen.
+  for (int frame = 1; frame <= 6; ++frame) west.publish({F, O, U, U}, 10.0 + frame / 30.0);
+  handleAll(node);
+  listener.drain();
+  EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, U, U}));
+  EXPECT_EQ(listener.last().cameras[1].state, CameraState::kDown);
+  EXPECT_FALSE(node.inputs()[1].fresh);
+  EXPECT_NEAR(*node.inputs()[1].age_s, 0.19, 1e-6);
+  // Its next map merges it again.
+  east.publish({O, U, F, O}, 10.205);
+  handleAll(node);
+  listener.drain();
+  EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, F, O}));
+  EXPECT_EQ(node.inputs()[0].maps, 7u);
+  EXPECT_EQ(node.inputs()[1].lost, 0u);
+  EXPECT_EQ(listener.heard(), static_cast<int>(node.published()));
+}
+
+TEST(MergeNode, InputsOfAnotherGeometryAreResampledAndBadMessagesCounted) {
+  MemoryNetwork network;
+  const MapGeometry merged = strip(0, 0.5, 8);
+  auto node_bus = network.connect();
+  MergeNode node(*node_bus, merged, {{"coarse", "MAP_COARSE"}}, 0.150, "MERGED", MapEncoding::kRaw);
+  Listener listener(network);
+  CameraPc coarse(network, "MAP_COARSE", strip(1, 1, 3));
+  coarse.publish({F, O, U}, 1.0);
+  handleAll(node);
+  listener.drain();
+  EXPECT_EQ(listener.cells(), (std::vector<CellState>{U, U, F, F, O, O, U, U}));
+  auto rogue = network.connect();
+  const std::uint8_t junk[] = {1, 2, 3};
+  rogue->publish("MAP_COARSE", junk);
+  handleAll(node);
+  EXPECT_EQ(node.inputs()[0].refused, 1u);
+  EXPECT_FALSE(node.inputs()[0].last_error.empty());
+}
+
+}  // namespace
+}  // namespace occmap
