@@ -42,7 +42,7 @@ namespace {
 using Keys = std::span<const std::string_view>;
 
 constexpr std::string_view kTopKeys[] = {"map",     "cameras",    "fusion", "transport",
-                                         "control", "footprints", "zones"};
+                                         "control", "footprints", "zones",  "merge"};
 constexpr std::string_view kZoneKeys[] = {"name", "polygon_m"};
 constexpr std::string_view kFootprintKeys[] = {
     "box_width_m",        "box_height_m",       "step_m",           "min_support",
@@ -63,6 +63,8 @@ constexpr std::string_view kCameraKeys[] = {
     "image_region", "background", "floor_mask",  "threshold",
     "lighting",     "fps",        "settings",    "world_frame"};
 constexpr std::string_view kCalibrationFilesKeys[] = {"intrinsics", "extrinsics"};
+constexpr std::string_view kMergeKeys[] = {"inputs", "max_age_ms"};
+constexpr std::string_view kMergeInputKeys[] = {"name", "channel"};
 
 int lineOf(const YAML::Node& node) {
   const YAML::Mark mark = node.Mark();
@@ -233,6 +235,7 @@ class ConfigReader {
     std::optional<Value> zones_value;
     bool has_map = false;
     bool has_cameras = false;
+    std::optional<int> merge_line;
     for (const Entry& entry : entries(Value{root, "", lineOf(root)}, kTopKeys)) {
       if (entry.key == "map") {
         config.map = readMap(entry.value);
@@ -250,6 +253,9 @@ class ConfigReader {
         config.footprints = readFootprints(entry.value);
       } else if (entry.key == "zones") {
         zones_value = entry.value;
+      } else if (entry.key == "merge") {
+        config.merge = readMerge(entry.value);
+        merge_line = entry.key_line;
       }
     }
     if (!has_map) {
@@ -257,7 +263,26 @@ class ConfigReader {
            "is missing; add `map: {origin_m: [x, y], cell_size_m: 0.02, width: 512, height: "
            "512}` (metres, cells)");
     }
-    if (!has_cameras) fail(lineOf(root), "cameras", "is missing; list the cameras to fuse");
+    if (has_cameras && merge_line) {
+      fail(*merge_line, "merge",
+           "and cameras are both given; a config either fuses cameras or merges other daemons' "
+           "maps (a merge node): keep one");
+    }
+    if (!has_cameras && !merge_line) {
+      fail(lineOf(root), "cameras",
+           "is missing; list the cameras to fuse (or, for a merge node, give merge: {inputs: "
+           "[{name, channel}, ...]})");
+    }
+    if (config.merge) {
+      for (const MergeInputConfig& input : config.merge->inputs) {
+        if (input.channel == config.transport.map_channel) {
+          fail(input.line, "merge.inputs",
+               "input \"" + input.name + "\" listens on " + input.channel +
+                   ", where this node publishes its merged map (transport.map_channel): give the "
+                   "camera PCs' maps channels of their own");
+        }
+      }
+    }
     // After the map, wherever they stand in the file: each must cover some of it.
     if (zones_value) config.zones = readZones(*zones_value, config.map);
     return config;
@@ -732,6 +757,53 @@ class ConfigReader {
            "is missing; a calibration in two files is {intrinsics: F, extrinsics: F} (OpenCV "
            "FileStorage YAML or XML), else give one file");
     }
+  }
+
+  MergeSettings readMerge(const Value& value) const {
+    MergeSettings merge;
+    bool has_inputs = false;
+    for (const Entry& entry : entries(value, kMergeKeys)) {
+      if (entry.key == "max_age_ms") {
+        merge.max_age_ms = real(entry.value, 0.0, true, 60000.0, " ms");
+      } else {
+        has_inputs = true;
+        const std::vector<Value> items = list(entry.value, "a list of inputs {name, channel}");
+        if (items.empty()) fail(entry.value.line, entry.value.field, "is empty; list the inputs");
+        for (const Value& item : items) {
+          MergeInputConfig input;
+          input.line = item.line;
+          for (const Entry& field : entries(item, kMergeInputKeys)) {
+            if (field.key == "name") {
+              input.name = text(field.value);
+              if (!isCameraName(input.name)) {
+                fail(field.value.line, field.value.field,
+                     "\"" + input.name +
+                         "\" is not an input name; use 1 to 64 letters, digits, '_', '.' or '-'");
+              }
+            } else {
+              input.channel = nonEmptyText(field.value);
+            }
+          }
+          if (input.name.empty() || input.channel.empty()) {
+            fail(item.line, item.field,
+                 "needs a name and a channel, such as {name: west, channel: OCCMAP_MAP_WEST}");
+          }
+          for (const MergeInputConfig& other : merge.inputs) {
+            if (other.name == input.name || other.channel == input.channel) {
+              fail(item.line, item.field,
+                   "repeats the name or channel of the input on line " +
+                       std::to_string(other.line) + "; each input is one camera PC");
+            }
+          }
+          merge.inputs.push_back(std::move(input));
+        }
+      }
+    }
+    if (!has_inputs) {
+      fail(value.line, value.field + ".inputs",
+           "is missing; list the camera PCs' maps, [{name: west, channel: OCCMAP_MAP_WEST}, ...]");
+    }
+    return merge;
   }
 
   void checkSource(const Value& value, const std::string& source) const {

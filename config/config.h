@@ -85,6 +85,18 @@ struct CameraConfig {
   LightingSettings effectiveLighting(const FusionSettings& fusion) const;
 };
 
+// A merge node's inputs (issue 16, docs/merge.md): instead of cameras, the maps of other occmapd
+// (camera PCs), each on its own channel, merged into this config's map.
+struct MergeInputConfig {
+  std::string name;
+  std::string channel;
+  int line = 0;
+};
+struct MergeSettings {
+  std::vector<MergeInputConfig> inputs;
+  double max_age_ms = 150.0;  // an input's newest map older than this behind the newest is down
+};
+
 struct Config {
   std::filesystem::path file;  // as given to loadConfig
   MapGeometry map;
@@ -93,7 +105,8 @@ struct Config {
   ControlSettings control;
   FootprintSettings footprints;  // footprints: people and objects on the map (docs/detection.md)
   std::vector<ZoneSpec> zones;   // zones: polygons with a state per map
-  std::vector<CameraConfig> cameras;
+  std::vector<CameraConfig> cameras;   // empty for a merge node
+  std::optional<MergeSettings> merge;  // a merge node's inputs, instead of cameras
 };
 
 // Reads and checks a config file. A missing or unreadable file is an InputError too.

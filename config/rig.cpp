@@ -83,6 +83,11 @@ class CameraOpener {
 }  // namespace
 
 Rig Rig::open(const Config& full_config, const RigOptions& options) {
+  if (full_config.cameras.empty()) {
+    throw InputError(full_config.file.string(), 0, "merge",
+                     "is a merge node's config: it merges other daemons' maps and has no cameras "
+                     "to open; run it with occmapd, or merge recorded maps with occmap merge");
+  }
   Config config = full_config;
   if (options.only_camera) {
     std::string names;

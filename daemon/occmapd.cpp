@@ -20,6 +20,7 @@
 #include "config/prepared_rig.h"
 #include "config/rig.h"
 #include "daemon/liveness.h"
+#include "daemon/merge_daemon.h"
 #include "daemon/pipeline.h"
 #include "daemon/service_notifier.h"
 #include "transport/lcm_bus.h"
@@ -118,10 +119,16 @@ PipelineOptions optionsFromEnvironment(std::chrono::steady_clock::time_point sta
 
 int run(const Options& options) {
   const auto start = std::chrono::steady_clock::now();
+  const Config first = loadConfig(options.config);
+  if (first.merge && options.check) {
+    std::printf("%s is valid: a merge node of %zu inputs, map %dx%d\n", options.config.c_str(),
+                first.merge->inputs.size(), first.map.width, first.map.height);
+    return kExitOk;
+  }
   if (options.check) {
     // Live cameras are not opened: a running daemon holds them. Their settings are checked when
     // occmapd opens them (a refused one is the same exit code 2 then).
-    const Config config = loadConfig(options.config);
+    const Config& config = first;
     checkControlKey(config);
     const Rig rig = Rig::open(config, rigOptions(false));
     const auto live = std::count_if(rig.cameras().begin(), rig.cameras().end(),
@@ -141,6 +148,8 @@ int run(const Options& options) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   ::signal(SIGPIPE, SIG_IGN);
   const int signal_fd = ::signalfd(-1, &signals, SFD_CLOEXEC);
+
+  if (first.merge) return runMergeDaemon(first, signal_fd);
 
   ServiceNotifier notifier;
   const PipelineOptions pipeline_options = optionsFromEnvironment(start);
@@ -240,6 +249,9 @@ int main(int argc, char** argv) {
       "section enabled, it takes authenticated requests to change a camera's threshold or "
       "recapture its background on OCCMAP_STATUS_CONTROL (see `occmap control`, "
       "docs/control.md).\n\n"
+      "With `merge:` instead of `cameras:` in the config it is a merge node: it merges the maps "
+      "other occmapd (camera PCs) publish on their own channels into one map of the whole floor "
+      "(docs/merge.md).\n\n"
       "Signals: SIGTERM/SIGINT stop cleanly (exit 0); SIGHUP reloads the config, and an invalid "
       "new config is reported while the old one keeps running.\n"
       "Under systemd (Type=notify) it reports READY=1 once every camera has delivered a frame or "

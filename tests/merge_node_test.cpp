@@ -9,6 +9,9 @@
 
 #include <gtest/gtest.h>
 
+#include "config/config.h"
+#include "config/input_error.h"
+#include "config/rig.h"
 #include "transport/map_codec.h"
 #include "transport/memory_bus.h"
 
@@ -140,6 +143,52 @@ TEST(MergeNode, InputsOfAnotherGeometryAreResampledAndBadMessagesCounted) {
   handleAll(node);
   EXPECT_EQ(node.inputs()[0].refused, 1u);
   EXPECT_FALSE(node.inputs()[0].last_error.empty());
+}
+
+InputError configError(const std::string& text) {
+  try {
+    parseConfig(text, "/site/merge.yaml");
+  } catch (const InputError& error) {
+    return error;
+  }
+  ADD_FAILURE() << "accepted:\n" << text;
+  return InputError("", 0, "", "");
+}
+
+TEST(MergeConfig, InputsInsteadOfCamerasAndEachSlipNamed) {
+  const std::string map = "map: {origin_m: [0, 0], cell_size_m: 0.1, width: 10, height: 10}\n";
+  const Config config = parseConfig(map +
+                                        "merge:\n"
+                                        "  max_age_ms: 200\n"
+                                        "  inputs:\n"
+                                        "    - {name: west, channel: OCCMAP_MAP_WEST}\n"
+                                        "    - {name: east, channel: OCCMAP_MAP_EAST}\n",
+                                    "/site/merge.yaml");
+  ASSERT_TRUE(config.merge);
+  EXPECT_TRUE(config.cameras.empty());
+  ASSERT_EQ(config.merge->inputs.size(), 2u);
+  EXPECT_EQ(config.merge->inputs[1].channel, "OCCMAP_MAP_EAST");
+  EXPECT_EQ(config.merge->max_age_ms, 200.0);
+  // A rig of no cameras is refused with what to do.
+  EXPECT_THROW(Rig::open(config), InputError);
+
+  const InputError both =
+      configError(map +
+                  "cameras:\n  - {name: c0, source: \"sim://room/c0\"}\nmerge: {inputs: [{name: w, "
+                  "channel: W}]}\n");
+  EXPECT_EQ(both.field(), "merge");
+  const InputError own = configError(map + "merge: {inputs: [{name: w, channel: OCCMAP_MAP}]}\n");
+  EXPECT_NE(std::string(own.what()).find("where this node publishes"), std::string::npos)
+      << own.what();
+  const InputError twice =
+      configError(map +
+                  "merge:\n  inputs:\n    - {name: w, channel: A}\n    - {name: w, "
+                  "channel: B}\n");
+  EXPECT_EQ(twice.line(), 5);
+  const InputError none = configError(map + "merge: {max_age_ms: 100}\n");
+  EXPECT_EQ(none.field(), "merge.inputs");
+  const InputError neither = configError(map);
+  EXPECT_NE(std::string(neither.what()).find("merge node"), std::string::npos) << neither.what();
 }
 
 }  // namespace
