@@ -57,7 +57,22 @@ void checkAcceptedConfig(const Config& config) {
           "an accepted control.replay_window_s is 1..3600 s");
   require(!config.control.enabled || config.control.key_file.is_absolute(),
           "an enabled control section names its key file, made absolute");
-  require(!config.cameras.empty(), "an accepted config has a camera");
+  require(config.cameras.empty() == config.merge.has_value(),
+          "an accepted config has cameras or is a merge node, not both and not neither");
+  if (config.merge) {
+    // A merge node: its inputs appear as the merged map's cameras (map_frame_t counts them in an
+    // int16_t), each with a name and a channel of its own, none the node's own map channel.
+    require(!config.merge->inputs.empty() && config.merge->inputs.size() <= 32767,
+            "an accepted merge node has 1..32767 inputs");
+    require(config.merge->max_age_ms > 0 && std::isfinite(config.merge->max_age_ms),
+            "an accepted max_age_ms is finite and > 0");
+    std::set<std::string> inputs, channels;
+    for (const MergeInputConfig& input : config.merge->inputs) {
+      require(inputs.insert(input.name).second && channels.insert(input.channel).second &&
+                  !input.channel.empty() && input.channel != config.transport.map_channel,
+              "accepted merge inputs have names and channels of their own");
+    }
+  }
   // map_frame_t and status_t count cameras in an int16_t.
   require(config.cameras.size() <= 32767, "an accepted config has at most 32767 cameras");
 
