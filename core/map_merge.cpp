@@ -1,65 +1,105 @@
 #include "core/map_merge.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
 namespace occmap {
 namespace {
 
-bool sameGeometry(const MapGeometry& a, const MapGeometry& b) {
-  return a.origin_x_m == b.origin_x_m && a.origin_y_m == b.origin_y_m &&
-         a.cell_size_m == b.cell_size_m && a.width == b.width && a.height == b.height;
+// For each of `count` merged cells along one axis (centres at origin + (i + 0.5) cell), the input's
+// cell along it that holds that centre, or -1.
+std::vector<std::int32_t> cellsAlong(double merged_origin, double merged_cell, int count,
+                                     double input_origin, double input_cell, int input_count) {
+  std::vector<std::int32_t> along(static_cast<std::size_t>(count), -1);
+  for (int i = 0; i < count; ++i) {
+    const double centre = merged_origin + (i + 0.5) * merged_cell;
+    const double at = std::floor((centre - input_origin) / input_cell);
+    if (at >= 0 && at < input_count)
+      along[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(at);
+  }
+  return along;
+}
+
+// The first and one past the last index holding a cell (the cells in between all do: an input's
+// map is one rectangle).
+void reach(const std::vector<std::int32_t>& along, int& begin, int& end) {
+  begin = 0;
+  while (begin < static_cast<int>(along.size()) && along[static_cast<std::size_t>(begin)] < 0) {
+    ++begin;
+  }
+  end = begin;
+  while (end < static_cast<int>(along.size()) && along[static_cast<std::size_t>(end)] >= 0) ++end;
 }
 
 }  // namespace
 
 MapMerger::MapMerger(const MapGeometry& merged, const std::vector<MapGeometry>& inputs)
-    : merged_(merged) {
+    : merged_(merged, CellState::kUnseen),
+      frees_(merged.cellCount(), 0),
+      sees_(merged.cellCount(), 0) {
+  if (inputs.size() > 65535) throw std::invalid_argument("MapMerger: more than 65535 inputs");
   for (const MapGeometry& geometry : inputs) {
     Input input;
     input.geometry = geometry;
-    input.same = sameGeometry(geometry, merged);
-    if (!input.same) {
-      input.cell.resize(merged.cellCount());
-      for (std::size_t i = 0; i < merged.cellCount(); ++i) {
-        const Eigen::Vector2d centre = merged.cellCentre(i);
-        input.cell[i] = geometry.cellAt(centre.x(), centre.y()).value_or(-1);
-      }
-    }
+    input.row_of = cellsAlong(merged.origin_y_m, merged.cell_size_m, merged.height,
+                              geometry.origin_y_m, geometry.cell_size_m, geometry.height);
+    input.column_of = cellsAlong(merged.origin_x_m, merged.cell_size_m, merged.width,
+                                 geometry.origin_x_m, geometry.cell_size_m, geometry.width);
+    reach(input.row_of, input.rows_begin, input.rows_end);
+    reach(input.column_of, input.columns_begin, input.columns_end);
+    input.applied.assign(geometry.cellCount(), CellState::kUnseen);
     inputs_.push_back(std::move(input));
   }
 }
 
-void MapMerger::merge(const std::vector<const OccupancyMap*>& inputs, OccupancyMap& out) const {
-  if (inputs.size() != inputs_.size() || out.cells.size() != merged_.cellCount()) {
+void MapMerger::update(std::size_t k, const OccupancyMap* map) {
+  Input& input = inputs_[k];
+  if (map != nullptr && map->cells.size() != input.geometry.cellCount()) {
+    throw std::invalid_argument("MapMerger::update: input " + std::to_string(k) + "'s map has " +
+                                std::to_string(map->cells.size()) + " cells, its geometry " +
+                                std::to_string(input.geometry.cellCount()));
+  }
+  const auto width = static_cast<std::size_t>(merged_.geometry.width);
+  const auto input_width = static_cast<std::size_t>(input.geometry.width);
+  for (int r = input.rows_begin; r < input.rows_end; ++r) {
+    const std::size_t input_row =
+        static_cast<std::size_t>(input.row_of[static_cast<std::size_t>(r)]) * input_width;
+    const std::size_t row = static_cast<std::size_t>(r) * width;
+    for (int c = input.columns_begin; c < input.columns_end; ++c) {
+      const std::size_t from =
+          input_row + static_cast<std::size_t>(input.column_of[static_cast<std::size_t>(c)]);
+      const CellState before = input.applied[from];
+      const CellState now = map != nullptr ? map->cells[from] : CellState::kUnseen;
+      if (before == now) continue;  // most cells, from one map to the next
+      const std::size_t i = row + static_cast<std::size_t>(c);
+      frees_[i] = static_cast<std::uint16_t>(frees_[i] + (now == CellState::kFree) -
+                                             (before == CellState::kFree));
+      sees_[i] = static_cast<std::uint16_t>(sees_[i] + (now != CellState::kUnseen) -
+                                            (before != CellState::kUnseen));
+      merged_.cells[i] = frees_[i] > 0  ? CellState::kFree
+                         : sees_[i] > 0 ? CellState::kOccupied
+                                        : CellState::kUnseen;
+    }
+  }
+  // A merged cell finer than the input's reads an input cell more than once: the cells counted are
+  // recorded after the whole pass.
+  if (map != nullptr) {
+    std::copy(map->cells.begin(), map->cells.end(), input.applied.begin());
+  } else {
+    std::fill(input.applied.begin(), input.applied.end(), CellState::kUnseen);
+  }
+}
+
+void MapMerger::merge(const std::vector<const OccupancyMap*>& inputs, OccupancyMap& out) {
+  if (inputs.size() != inputs_.size() || out.cells.size() != merged_.cells.size()) {
     throw std::invalid_argument("MapMerger::merge: " + std::to_string(inputs.size()) +
                                 " maps for " + std::to_string(inputs_.size()) +
                                 " inputs, or an output of another geometry");
   }
-  // Unseen until some input sees the cell; occupied once one does; free once one frees it, which no
-  // other input undoes: the same whatever the order of the inputs.
-  std::fill(out.cells.begin(), out.cells.end(), CellState::kUnseen);
-  for (std::size_t k = 0; k < inputs_.size(); ++k) {
-    const OccupancyMap* map = inputs[k];
-    if (map == nullptr) continue;  // down: it sees nothing
-    const Input& input = inputs_[k];
-    if (map->cells.size() != input.geometry.cellCount()) {
-      throw std::invalid_argument("MapMerger::merge: input " + std::to_string(k) +
-                                  " is not of the geometry it was given");
-    }
-    for (std::size_t i = 0; i < out.cells.size(); ++i) {
-      const std::int32_t cell = input.same ? static_cast<std::int32_t>(i) : input.cell[i];
-      if (cell < 0) continue;
-      const CellState state = map->cells[static_cast<std::size_t>(cell)];
-      CellState& merged = out.cells[i];
-      if (state == CellState::kFree) {
-        merged = CellState::kFree;
-      } else if (state == CellState::kOccupied && merged == CellState::kUnseen) {
-        merged = CellState::kOccupied;
-      }
-    }
-  }
+  for (std::size_t k = 0; k < inputs.size(); ++k) update(k, inputs[k]);
+  std::copy(merged_.cells.begin(), merged_.cells.end(), out.cells.begin());
 }
 
 }  // namespace occmap

@@ -15,26 +15,42 @@ namespace occmap {
 //
 // Inputs may have any geometry: each merged cell takes the input cell that holds its centre (none
 // when it lies off that input's map: unseen there). An input that is down (stale, silent) is
-// passed as null and counts as seeing nothing.
+// given as null and counts as seeing nothing.
+//
+// The merged map is kept up to date input by input: each merged cell counts the inputs that free
+// it and those that see it, and an input's new map changes the counts only where that input
+// reaches and its cells changed. So a merge node of 16 camera PCs does a sixteenth of the merged
+// map's work per map heard, not all of it (bench/merge_bench.cpp).
 class MapMerger {
  public:
   MapMerger(const MapGeometry& merged, const std::vector<MapGeometry>& inputs);
 
-  const MapGeometry& geometry() const { return merged_; }
+  const MapGeometry& geometry() const { return merged_.geometry; }
   std::size_t inputCount() const { return inputs_.size(); }
+  const MapGeometry& inputGeometry(std::size_t k) const { return inputs_[k].geometry; }
 
-  // `inputs[i]` is input i's map, of the geometry given for it, or null when it is down. `out` must
-  // have the merged geometry. Allocates nothing.
-  void merge(const std::vector<const OccupancyMap*>& inputs, OccupancyMap& out) const;
+  // Input k's newest map (of the geometry given for it), or null when it is down: the merged map
+  // follows where input k reaches. Allocates nothing. Throws std::invalid_argument for a map of
+  // another size.
+  void update(std::size_t k, const OccupancyMap* map);
+  const OccupancyMap& merged() const { return merged_; }
+
+  // Every input at once (`inputs[k]` as for update), the merged map copied to `out`.
+  void merge(const std::vector<const OccupancyMap*>& inputs, OccupancyMap& out);
 
  private:
   struct Input {
     MapGeometry geometry;
-    bool same = false;               // the merged geometry: cell i is cell i
-    std::vector<std::int32_t> cell;  // else, per merged cell, its input cell or -1
+    // Per merged row and column, the input's row and column under its centre, or -1.
+    std::vector<std::int32_t> row_of;
+    std::vector<std::int32_t> column_of;
+    int rows_begin = 0, rows_end = 0, columns_begin = 0, columns_end = 0;  // where it reaches
+    std::vector<CellState> applied;  // the cells last counted (unseen: nothing)
   };
 
-  MapGeometry merged_;
+  OccupancyMap merged_;
+  std::vector<std::uint16_t> frees_;  // per merged cell, inputs that free it
+  std::vector<std::uint16_t> sees_;   // and inputs that see it (free or occupied)
   std::vector<Input> inputs_;
 };
 

@@ -1,5 +1,6 @@
 #include "daemon/merge_node.h"
 
+#include <algorithm>
 #include <utility>
 
 #include "base/clock.h"
@@ -49,45 +50,84 @@ void MergeNode::heard(std::size_t k, const std::uint8_t* data, std::size_t size,
     input.last_error = decoded.error;
     return;
   }
+  if (input.seq >= 0 && decoded.seq <= input.seq) return;  // old or repeated: nothing new
   if (input.seq >= 0 && decoded.seq > input.seq + 1) {
     input.lost += static_cast<std::uint64_t>(decoded.seq - input.seq - 1);
   }
-  if (input.seq >= 0 && decoded.seq <= input.seq) return;  // old or repeated: nothing new
   const bool new_geometry = !input.map || !sameGeometry(input.map->geometry, decoded.geometry);
   if (new_geometry) input.map.emplace(decoded.geometry);
   for (std::size_t i = 0; i < decoded.cells.size(); ++i) {
     input.map->cells[i] = static_cast<CellState>(decoded.cells[i]);
   }
+  if (input.seq >= 0 && decoded.utime > input.capture_utime) {
+    input.period_s = static_cast<double>(decoded.utime - input.capture_utime) * 1e-6;
+  }
   input.seq = decoded.seq;
   input.capture_utime = decoded.utime;
+  input.new_map = true;
   ++input.maps;
   freshness_.heard(k, static_cast<double>(decoded.utime) * 1e-6,
                    static_cast<double>(recv_utime) * 1e-6);
   if (new_geometry || !merger_) {
-    // Inputs not heard from yet stand in with the merged geometry; they are down until heard.
-    std::vector<MapGeometry> geometries;
-    for (const Input& other : inputs_) {
-      geometries.push_back(other.map ? other.map->geometry : merged_geometry_);
+    rebuildMerger();
+  } else {
+    // This input's new map where it is fresh, and any input whose freshness this map changed.
+    for (std::size_t j = 0; j < inputs_.size(); ++j) {
+      Input& other = inputs_[j];
+      const bool fresh = freshness_.fresh(j);
+      if (fresh && (j == k || !other.merged)) {
+        merger_->update(j, &*other.map);
+      } else if (!fresh && other.merged) {
+        merger_->update(j, nullptr);
+      }
+      other.merged = fresh;
     }
-    merger_ = std::make_unique<MapMerger>(merged_geometry_, geometries);
   }
-  if (decoded.utime > last_published_utime_) mergeAndPublish(recv_utime);
+  if (timeToPublish()) publish(recv_utime);
 }
 
-void MergeNode::mergeAndPublish(std::int64_t newest_arrival_utime) {
-  fresh_maps_.assign(inputs_.size(), nullptr);
+void MergeNode::rebuildMerger() {
+  // Inputs not heard from yet stand in with the merged geometry; they are down until heard.
+  std::vector<MapGeometry> geometries;
+  for (const Input& input : inputs_) {
+    geometries.push_back(input.map ? input.map->geometry : merged_geometry_);
+  }
+  merger_ = std::make_unique<MapMerger>(merged_geometry_, geometries);
+  for (std::size_t j = 0; j < inputs_.size(); ++j) {
+    inputs_[j].merged = freshness_.fresh(j);
+    if (inputs_[j].merged) merger_->update(j, &*inputs_[j].map);
+  }
+}
+
+bool MergeNode::timeToPublish() const {
+  const std::optional<double> newest = freshness_.newestCaptureS();
+  if (!newest || static_cast<std::int64_t>(*newest * 1e6 + 0.5) <= last_published_utime_) {
+    return false;  // nothing newer than what went out
+  }
+  bool all_new = true;
+  double period = 1.0;
+  for (const Input& input : inputs_) {
+    if (input.merged) {
+      all_new = all_new && input.new_map;
+      period = std::min(period, input.period_s);
+    }
+  }
+  return all_new || *newest - static_cast<double>(last_published_utime_) * 1e-6 >= period;
+}
+
+void MergeNode::publish(std::int64_t newest_arrival_utime) {
   for (std::size_t k = 0; k < inputs_.size(); ++k) {
-    const bool fresh = freshness_.fresh(k);
-    if (fresh) fresh_maps_[k] = &*inputs_[k].map;
+    Input& input = inputs_[k];
     CameraContribution& part = frame_.cameras[k];
     part.state = !freshness_.heardFrom(k) ? CameraState::kStarting
-                 : fresh                  ? CameraState::kStreaming
+                 : input.merged           ? CameraState::kStreaming
                                           : CameraState::kDown;
-    part.used = fresh;
-    part.sequence = fresh ? inputs_[k].seq : -1;
-    part.capture_time_us = fresh ? inputs_[k].capture_utime : 0;
+    part.used = input.merged;
+    part.sequence = input.merged ? input.seq : -1;
+    part.capture_time_us = input.merged ? input.capture_utime : 0;
+    input.new_map = false;
   }
-  merger_->merge(fresh_maps_, frame_.map);
+  frame_.map.cells = merger_->merged().cells;  // same size: no allocation
   const std::int64_t newest = static_cast<std::int64_t>(*freshness_.newestCaptureS() * 1e6 + 0.5);
   frame_.utime = std::max(newest, last_published_utime_ + 1);
   frame_.seq = static_cast<std::int64_t>(published_ + publish_errors_);

@@ -19,11 +19,13 @@ namespace occmap {
 // (core/map_merge.h) from the inputs that are fresh (core/merge_inputs.h); a stale or silent input
 // counts as down and its cells turn unseen.
 //
-// A merged map goes out each time an input's map brings a capture newer than any merged before, so
-// that maps come at the inputs' rate and a change reaches the network with the map that shows it.
-// Its utime is that newest capture; its "cameras" are the inputs (name, streaming or down, used
-// when fresh, the input's map seq and capture time), so `occmap view` and any subscriber see which
-// parts of the floor come from where. Everything runs on the thread that calls spinOnce().
+// A merged map goes out once every fresh input has brought a new map since the last one went out
+// (camera PCs at 30 Hz: 30 merged maps a second, whatever their number), or once the newest capture
+// is a frame period (the fastest input's) past the last one published, so that an input that
+// falls behind holds nothing up. Its utime is the newest capture merged; its "cameras" are the
+// inputs (name, streaming or down, used when fresh, the input's map seq and capture time), so
+// `occmap view` and any subscriber see which parts of the floor come from where. Everything runs on
+// the thread that calls spinOnce().
 struct MergeInputSpec {
   std::string name;
   std::string channel;
@@ -64,10 +66,16 @@ class MergeNode {
     std::int64_t capture_utime = 0;
     std::uint64_t maps = 0, lost = 0, refused = 0;
     std::string last_error;
+    bool merged = false;         // its map is in the merged map (it is fresh)
+    bool new_map = false;        // a map came since the last merged map went out
+    double period_s = 1.0 / 30;  // between its last two captures
   };
 
   void heard(std::size_t k, const std::uint8_t* data, std::size_t size, std::int64_t recv_utime);
-  void mergeAndPublish(std::int64_t newest_arrival_utime);
+  // The merger for the inputs' geometries as known now, every fresh input's map in it.
+  void rebuildMerger();
+  bool timeToPublish() const;
+  void publish(std::int64_t newest_arrival_utime);
 
   Bus& bus_;
   MapGeometry merged_geometry_;
@@ -76,7 +84,6 @@ class MergeNode {
   std::string output_channel_;
   MapDecoder decoder_;
   std::unique_ptr<MapMerger> merger_;  // rebuilt when an input's geometry is first known or changes
-  std::vector<const OccupancyMap*> fresh_maps_;
   MapFrame frame_;
   MapEncoder encoder_;
   std::int64_t last_published_utime_ = 0;

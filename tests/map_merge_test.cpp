@@ -53,7 +53,7 @@ TEST(MapMerger, FreeWhenAnyFreesUnseenWhenNoneSeesOccupiedOtherwise) {
   const OccupancyMap a = mapOf(g, {F, O, U, O, F, O});
   const OccupancyMap b = mapOf(g, {U, U, U, O, O, U});
   const OccupancyMap c = mapOf(g, {O, U, U, O, U, F});
-  const MapMerger merger(g, {g, g, g});
+  MapMerger merger(g, {g, g, g});
   OccupancyMap merged(g);
   merger.merge({&a, &b, &c}, merged);
   EXPECT_EQ(merged.cells, (std::vector<CellState>{F, O, U, O, F, F}));
@@ -74,13 +74,59 @@ TEST(MapMerger, InputsOfAnotherGeometryAreResampled) {
   const MapGeometry merged_geometry{0.0, 0.0, 0.5, 8, 1};
   const MapGeometry input_geometry{1.0, 0.0, 1.0, 3, 1};
   const OccupancyMap input = mapOf(input_geometry, {F, O, U});
-  const MapMerger merger(merged_geometry, {input_geometry});
+  MapMerger merger(merged_geometry, {input_geometry});
   OccupancyMap merged(merged_geometry);
   merger.merge({&input}, merged);
   EXPECT_EQ(merged.cells, (std::vector<CellState>{U, U, F, F, O, O, U, U}));
   // Maps of the wrong size are refused, not read past their end.
   const OccupancyMap wrong(strip(2));
   EXPECT_THROW(merger.merge({&wrong}, merged), std::invalid_argument);
+}
+
+// The merged map kept up to date input by input is, after every update, the rule applied afresh
+// to every input's current map: inputs finer, coarser, shifted and partly off the merged map, maps
+// changing and inputs going down and up at random.
+TEST(MapMerger, KeptUpToDateInputByInputItIsTheRuleAppliedAfresh) {
+  const MapGeometry merged_geometry{0.0, 0.0, 0.1, 40, 30};
+  const std::vector<MapGeometry> inputs = {{0.0, 0.0, 0.1, 40, 30},    // the same
+                                           {-0.5, 1.0, 0.05, 50, 30},  // finer, off the edge
+                                           {1.0, -0.3, 0.25, 10, 10},  // coarser, shifted
+                                           {3.5, 2.5, 0.1, 20, 20}};   // partly beyond the map
+  MapMerger merger(merged_geometry, inputs);
+  std::vector<OccupancyMap> maps;
+  for (const MapGeometry& g : inputs) maps.emplace_back(g);
+  std::vector<bool> up(inputs.size(), false);
+  std::uint32_t state = 7;
+  const auto next = [&](std::uint32_t n) {
+    state = state * 1664525u + 1013904223u;
+    return (state >> 8) % n;
+  };
+  for (int step = 0; step < 200; ++step) {
+    const std::size_t k = next(static_cast<std::uint32_t>(inputs.size()));
+    up[k] = next(5) != 0;
+    for (CellState& cell : maps[k].cells) {
+      if (next(4) == 0) cell = static_cast<CellState>(next(3));
+    }
+    merger.update(k, up[k] ? &maps[k] : nullptr);
+    // The rule afresh, cell by cell.
+    for (int row = 0; row < merged_geometry.height; ++row) {
+      for (int column = 0; column < merged_geometry.width; ++column) {
+        const Eigen::Vector2d centre = merged_geometry.cellCentre(row, column);
+        bool freed = false, seen = false;
+        for (std::size_t j = 0; j < inputs.size(); ++j) {
+          const std::optional<int> cell = inputs[j].cellAt(centre.x(), centre.y());
+          if (!up[j] || !cell) continue;
+          const CellState s = maps[j].cells[static_cast<std::size_t>(*cell)];
+          freed = freed || s == F;
+          seen = seen || s != U;
+        }
+        ASSERT_EQ(merger.merged().at(row, column), freed  ? F
+                                                   : seen ? O
+                                                          : U)
+            << "step " << step << ", cell " << row << ", " << column;
+      }
+    }
+  }
 }
 
 TEST(MergeInputs, AnInputStaleByMaxAgeIsDownAndFreshAgainWithItsNextMap) {

@@ -99,29 +99,41 @@ TEST(MergeNode, PublishesTheFreshInputsMergedAndTurnsAStaleOneUnseen) {
   handleAll(node);
   listener.drain();
   EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, U, U}));  // east not heard: down
+  // East's map alone: west has brought nothing since, and no frame period has passed: held.
   east.publish({O, U, F, O}, 10.010);
   handleAll(node);
   listener.drain();
+  EXPECT_EQ(listener.heard(), 1);
+  // West's next: every fresh input has a new map, out goes the merge.
+  west.publish({F, O, U, U}, 10.0 + 1 / 30.0);
+  handleAll(node);
+  listener.drain();
+  EXPECT_EQ(listener.heard(), 2);
   EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, F, O}));
-  EXPECT_EQ(listener.last().utime, 10'010'000);
+  EXPECT_EQ(listener.last().utime, 10'033'333);
   ASSERT_EQ(listener.last().cameras.size(), 2u);
   EXPECT_EQ(listener.last().cameras[1].name, "east");
   EXPECT_EQ(listener.last().cameras[1].state, CameraState::kStreaming);
 
-  // East stops; west goes on at 30 Hz: east is down once 0.15 s behind, its cells unseen.
-  for (int frame = 1; frame <= 6; ++frame) west.publish({F, O, U, U}, 10.0 + frame / 30.0);
+  // East stops; west goes on at 30 Hz, a merged map each (a frame period passes each time): east
+  // is down once 0.15 s behind, its cells unseen.
+  for (int frame = 2; frame <= 7; ++frame) west.publish({F, O, U, U}, 10.0 + frame / 30.0);
   handleAll(node);
   listener.drain();
+  EXPECT_EQ(listener.heard(), 8);
   EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, U, U}));
   EXPECT_EQ(listener.last().cameras[1].state, CameraState::kDown);
   EXPECT_FALSE(node.inputs()[1].fresh);
-  EXPECT_NEAR(*node.inputs()[1].age_s, 0.19, 1e-6);
-  // Its next map merges it again.
+  EXPECT_NEAR(*node.inputs()[1].age_s, 0.2233333, 1e-6);
+  // Its next map makes it fresh again, merged in the next map out.
   east.publish({O, U, F, O}, 10.205);
+  handleAll(node);
+  west.publish({F, O, U, U}, 10.0 + 8 / 30.0);
   handleAll(node);
   listener.drain();
   EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, F, O}));
-  EXPECT_EQ(node.inputs()[0].maps, 7u);
+  EXPECT_EQ(listener.last().cameras[1].state, CameraState::kStreaming);
+  EXPECT_EQ(node.inputs()[0].maps, 9u);
   EXPECT_EQ(node.inputs()[1].lost, 0u);
   EXPECT_EQ(listener.heard(), static_cast<int>(node.published()));
 }

@@ -63,7 +63,7 @@ int runMerge(const MergeOptions& o) {
     merged.height = first.height();
   }
   if (geometries.empty()) geometries.assign(o.inputs.size(), merged);
-  const MapMerger merger(merged, geometries);
+  MapMerger merger(merged, geometries);
 
   const fs::path out(o.out);
   const std::vector<fs::path> old_maps = checkOutput(out, o.overwrite, "merge");
