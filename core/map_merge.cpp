@@ -50,6 +50,16 @@ MapMerger::MapMerger(const MapGeometry& merged, const std::vector<MapGeometry>& 
     reach(input.row_of, input.rows_begin, input.rows_end);
     reach(input.column_of, input.columns_begin, input.columns_end);
     input.applied.assign(geometry.cellCount(), CellState::kUnseen);
+    const auto consecutive = [](const std::vector<std::int32_t>& along, int begin, int end) {
+      for (int i = begin + 1; i < end; ++i) {
+        if (along[static_cast<std::size_t>(i)] != along[static_cast<std::size_t>(i - 1)] + 1) {
+          return false;
+        }
+      }
+      return true;
+    };
+    input.one_to_one = consecutive(input.row_of, input.rows_begin, input.rows_end) &&
+                       consecutive(input.column_of, input.columns_begin, input.columns_end);
     inputs_.push_back(std::move(input));
   }
 }
@@ -63,24 +73,44 @@ void MapMerger::update(std::size_t k, const OccupancyMap* map) {
   }
   const auto width = static_cast<std::size_t>(merged_.geometry.width);
   const auto input_width = static_cast<std::size_t>(input.geometry.width);
+  const auto now_at = [&](std::size_t from) {
+    return map != nullptr ? map->cells[from] : CellState::kUnseen;
+  };
   for (int r = input.rows_begin; r < input.rows_end; ++r) {
     const std::size_t input_row =
         static_cast<std::size_t>(input.row_of[static_cast<std::size_t>(r)]) * input_width;
     const std::size_t row = static_cast<std::size_t>(r) * width;
+    if (input.one_to_one && map != nullptr) {
+      // Most of a row is as it was: blocks of 64 cells compared whole, only changed ones looked in.
+      constexpr int kBlock = 64;
+      const std::size_t first =
+          input_row +
+          static_cast<std::size_t>(input.column_of[static_cast<std::size_t>(input.columns_begin)]);
+      const int length = input.columns_end - input.columns_begin;
+      for (int b = 0; b < length; b += kBlock) {
+        const int n = std::min(kBlock, length - b);
+        const std::size_t from = first + static_cast<std::size_t>(b);
+        if (std::equal(map->cells.begin() + static_cast<std::ptrdiff_t>(from),
+                       map->cells.begin() + static_cast<std::ptrdiff_t>(from) + n,
+                       input.applied.begin() + static_cast<std::ptrdiff_t>(from))) {
+          continue;
+        }
+        for (int j = 0; j < n; ++j) {
+          const std::size_t cell = from + static_cast<std::size_t>(j);
+          if (input.applied[cell] != map->cells[cell]) {
+            count(row + static_cast<std::size_t>(input.columns_begin + b + j), input.applied[cell],
+                  map->cells[cell]);
+          }
+        }
+      }
+      continue;
+    }
     for (int c = input.columns_begin; c < input.columns_end; ++c) {
       const std::size_t from =
           input_row + static_cast<std::size_t>(input.column_of[static_cast<std::size_t>(c)]);
       const CellState before = input.applied[from];
-      const CellState now = map != nullptr ? map->cells[from] : CellState::kUnseen;
-      if (before == now) continue;  // most cells, from one map to the next
-      const std::size_t i = row + static_cast<std::size_t>(c);
-      frees_[i] = static_cast<std::uint16_t>(frees_[i] + (now == CellState::kFree) -
-                                             (before == CellState::kFree));
-      sees_[i] = static_cast<std::uint16_t>(sees_[i] + (now != CellState::kUnseen) -
-                                            (before != CellState::kUnseen));
-      merged_.cells[i] = frees_[i] > 0  ? CellState::kFree
-                         : sees_[i] > 0 ? CellState::kOccupied
-                                        : CellState::kUnseen;
+      const CellState now = now_at(from);
+      if (before != now) count(row + static_cast<std::size_t>(c), before, now);
     }
   }
   // A merged cell finer than the input's reads an input cell more than once: the cells counted are
@@ -90,6 +120,16 @@ void MapMerger::update(std::size_t k, const OccupancyMap* map) {
   } else {
     std::fill(input.applied.begin(), input.applied.end(), CellState::kUnseen);
   }
+}
+
+void MapMerger::count(std::size_t i, CellState before, CellState now) {
+  frees_[i] = static_cast<std::uint16_t>(frees_[i] + (now == CellState::kFree) -
+                                         (before == CellState::kFree));
+  sees_[i] = static_cast<std::uint16_t>(sees_[i] + (now != CellState::kUnseen) -
+                                        (before != CellState::kUnseen));
+  merged_.cells[i] = frees_[i] > 0  ? CellState::kFree
+                     : sees_[i] > 0 ? CellState::kOccupied
+                                    : CellState::kUnseen;
 }
 
 void MapMerger::merge(const std::vector<const OccupancyMap*>& inputs, OccupancyMap& out) {

@@ -45,8 +45,14 @@ class MapMerger {
     std::vector<std::int32_t> row_of;
     std::vector<std::int32_t> column_of;
     int rows_begin = 0, rows_end = 0, columns_begin = 0, columns_end = 0;  // where it reaches
+    // Its cells are the merged cells where it reaches, one for one (the same cell size, on the same
+    // grid): a row of it is a run of merged cells, compared a block at a time.
+    bool one_to_one = false;
     std::vector<CellState> applied;  // the cells last counted (unseen: nothing)
   };
+
+  // Counts merged cell i anew for input cell `from` going from `before` to `now`.
+  void count(std::size_t i, CellState before, CellState now);
 
   OccupancyMap merged_;
   std::vector<std::uint16_t> frees_;  // per merged cell, inputs that free it
