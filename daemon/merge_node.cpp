@@ -1,6 +1,7 @@
 #include "daemon/merge_node.h"
 
 #include <algorithm>
+#include <cstring>
 #include <utility>
 
 #include "base/clock.h"
@@ -56,9 +57,12 @@ void MergeNode::heard(std::size_t k, const std::uint8_t* data, std::size_t size,
   }
   const bool new_geometry = !input.map || !sameGeometry(input.map->geometry, decoded.geometry);
   if (new_geometry) input.map.emplace(decoded.geometry);
-  for (std::size_t i = 0; i < decoded.cells.size(); ++i) {
-    input.map->cells[i] = static_cast<CellState>(decoded.cells[i]);
-  }
+  // The decoder refused any cell value but 0, 1 and 2, CellState's own values: the bytes as they
+  // are.
+  static_assert(sizeof(CellState) == 1 && static_cast<int>(CellState::kFree) == 0 &&
+                static_cast<int>(CellState::kOccupied) == 1 &&
+                static_cast<int>(CellState::kUnseen) == 2);
+  std::memcpy(input.map->cells.data(), decoded.cells.data(), decoded.cells.size());
   if (input.seq >= 0 && decoded.utime > input.capture_utime) {
     input.period_s = static_cast<double>(decoded.utime - input.capture_utime) * 1e-6;
   }
