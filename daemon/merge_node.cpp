@@ -23,13 +23,16 @@ bool sameGeometry(const MapGeometry& a, const MapGeometry& b) {
 }  // namespace
 
 MergeNode::MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInputSpec> inputs,
-                     double max_age_s, std::string output_channel, MapEncoding encoding)
+                     double max_age_s, std::string output_channel, MapEncoding encoding,
+                     std::span<const ZoneSpec> zones, std::string hostname)
     : bus_(bus),
       merged_geometry_(merged),
       freshness_(inputs.size(), max_age_s),
       output_channel_(std::move(output_channel)),
       frame_(merged, inputs.size()),
-      encoder_(merged, namesOf(inputs), encoding) {
+      encoder_(merged, namesOf(inputs), encoding),
+      zones_(merged, zones),
+      zones_publisher_(output_channel_, std::move(hostname), zones) {
   for (MergeInputSpec& spec : inputs)
     inputs_.push_back(Input{std::move(spec), {}, -1, 0, 0, 0, 0, {}});
   for (std::size_t k = 0; k < inputs_.size(); ++k) {
@@ -142,6 +145,10 @@ void MergeNode::publish(std::int64_t newest_arrival_utime) {
   }
   ++published_;
   last_published_utime_ = frame_.utime;
+  // The zones' states on this very map, right after it (nothing is sent without zones).
+  const double time_s = static_cast<double>(frame_.utime) * 1e-6;
+  zones_publisher_.publishZones(bus_, frame_.seq, frame_.utime,
+                                zones_.update(frame_.map.cells, time_s), time_s);
   last_latency_s_ = static_cast<double>(hostTimeMicroseconds() - newest_arrival_utime) * 1e-6;
 }
 

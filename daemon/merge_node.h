@@ -3,13 +3,16 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "core/map_frame.h"
 #include "core/map_merge.h"
 #include "core/merge_inputs.h"
+#include "core/zones.h"
 #include "transport/bus.h"
+#include "transport/footprints_publisher.h"
 #include "transport/map_codec.h"
 
 namespace occmap {
@@ -33,8 +36,11 @@ struct MergeInputSpec {
 
 class MergeNode {
  public:
+  // `zones` (the config's) get a state on every merged map, sent right after it as occmapd sends
+  // them (zones_t on the map channel + "_ZONES"), from the merged map's cells alone.
   MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInputSpec> inputs,
-            double max_age_s, std::string output_channel, MapEncoding encoding);
+            double max_age_s, std::string output_channel, MapEncoding encoding,
+            std::span<const ZoneSpec> zones = {}, std::string hostname = "merge");
 
   // Handles what arrives within `timeout_ms`: > 0 handled, 0 timed out, < 0 a bus error.
   int spinOnce(int timeout_ms);
@@ -86,6 +92,8 @@ class MergeNode {
   std::unique_ptr<MapMerger> merger_;  // rebuilt when an input's geometry is first known or changes
   MapFrame frame_;
   MapEncoder encoder_;
+  Zones zones_;
+  FootprintsPublisher zones_publisher_;
   std::int64_t last_published_utime_ = 0;
   std::uint64_t published_ = 0;
   std::uint64_t publish_errors_ = 0;

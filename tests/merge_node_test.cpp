@@ -12,6 +12,7 @@
 #include "config/config.h"
 #include "config/input_error.h"
 #include "config/rig.h"
+#include "transport/footprints_message.h"
 #include "transport/map_codec.h"
 #include "transport/memory_bus.h"
 
@@ -155,6 +156,41 @@ TEST(MergeNode, InputsOfAnotherGeometryAreResampledAndBadMessagesCounted) {
   handleAll(node);
   EXPECT_EQ(node.inputs()[0].refused, 1u);
   EXPECT_FALSE(node.inputs()[0].last_error.empty());
+}
+
+// A zone of the config gets its state on every merged map, sent right after it, as occmapd does.
+TEST(MergeNode, ZonesHaveAStateOnEveryMergedMap) {
+  MemoryNetwork network;
+  const MapGeometry g = strip(0, 1, 4);
+  auto node_bus = network.connect();
+  const std::vector<ZoneSpec> zones = {{"dock", {{2.0, 0.0}, {4.0, 0.0}, {4.0, 1.0}, {2.0, 1.0}}}};
+  MergeNode node(*node_bus, g, {{"west", "MAP_WEST"}, {"east", "MAP_EAST"}}, 0.150, "MERGED",
+                 MapEncoding::kRaw, zones);
+  auto listener = network.connect();
+  std::vector<occmap::zones_t> heard;
+  listener->subscribe(zonesChannel("MERGED"),
+                      [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+                        const auto decoded = decodeZones(data, size);
+                        ASSERT_TRUE(decoded);
+                        heard.push_back(*decoded);
+                      });
+  CameraPc west(network, "MAP_WEST", g);
+  CameraPc east(network, "MAP_EAST", g);
+  west.publish({F, O, U, U}, 1.000);  // the dock (cells 2 and 3) unseen
+  handleAll(node);
+  east.publish({O, U, F, O}, 1.010);
+  handleAll(node);
+  west.publish({F, O, U, U}, 1.0 + 1 / 30.0);  // merged: the dock's cell 3 occupied
+  handleAll(node);
+  while (listener->handleTimeout(0) > 0) {
+  }
+  ASSERT_EQ(heard.size(), 2u);
+  ASSERT_EQ(heard[0].num_zones, 1);
+  EXPECT_EQ(heard[0].zones[0].name, "dock");
+  EXPECT_EQ(heard[0].zones[0].state, occmap::zone_t::UNSEEN);
+  EXPECT_EQ(heard[1].zones[0].state, occmap::zone_t::OCCUPIED);
+  EXPECT_EQ(heard[1].zones[0].occupied_cells, 1);
+  EXPECT_EQ(heard[1].seq, 1);  // the merged map's own seq
 }
 
 InputError configError(const std::string& text) {
