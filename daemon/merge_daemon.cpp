@@ -43,11 +43,9 @@ int runMergeDaemon(const Config& config, int signal_fd) {
   std::vector<MergeInputSpec> inputs;
   for (const MergeInputConfig& input : merge.inputs) inputs.push_back({input.name, input.channel});
   std::unique_ptr<Bus> bus = LcmBus::open(config.transport.lcm_url);
-  char host[256] = {};
-  if (::gethostname(host, sizeof host - 1) != 0) host[0] = '?';
   MergeNode node(*bus, config.map, inputs, merge.max_age_ms / 1000.0, config.transport.map_channel,
                  parseMapEncoding(config.transport.encoding).value_or(MapEncoding::kZstd),
-                 config.zones, host);
+                 config.zones, hostName());
   ServiceNotifier notifier;
   notifier.ready();
   logLine(LogLevel::kNotice, "merge node ready: %zu inputs into %s (map %dx%d)", inputs.size(),

@@ -54,7 +54,12 @@ void MergeNode::heard(std::size_t k, const std::uint8_t* data, std::size_t size,
     input.last_error = decoded.error;
     return;
   }
-  if (input.seq >= 0 && decoded.seq <= input.seq) return;  // old or repeated: nothing new
+  // Old or repeated: nothing new. A seq that starts again with a newer capture is the PC's occmapd
+  // restarted (its seq counts from 0), not an old map: taken, or the PC would stay down until its
+  // new seq passed the old one.
+  const bool restarted =
+      input.seq >= 0 && decoded.seq <= input.seq && decoded.utime > input.capture_utime;
+  if (input.seq >= 0 && decoded.seq <= input.seq && !restarted) return;
   if (input.seq >= 0 && decoded.seq > input.seq + 1) {
     input.lost += static_cast<std::uint64_t>(decoded.seq - input.seq - 1);
   }
@@ -66,7 +71,7 @@ void MergeNode::heard(std::size_t k, const std::uint8_t* data, std::size_t size,
                 static_cast<int>(CellState::kOccupied) == 1 &&
                 static_cast<int>(CellState::kUnseen) == 2);
   std::memcpy(input.map->cells.data(), decoded.cells.data(), decoded.cells.size());
-  if (input.seq >= 0 && decoded.utime > input.capture_utime) {
+  if (input.seq >= 0 && !restarted && decoded.utime > input.capture_utime) {
     input.period_s = static_cast<double>(decoded.utime - input.capture_utime) * 1e-6;
   }
   input.seq = decoded.seq;

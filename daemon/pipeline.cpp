@@ -19,6 +19,7 @@
 #include "config/calibration_file.h"
 #include "core/opencv_camera.h"
 #include "core/pacing.h"
+#include "daemon/service_notifier.h"
 #include "transport/control_message.h"
 #include "transport/status_requests.h"
 #include "transport/status_text.h"
@@ -35,12 +36,6 @@ constexpr std::int64_t kLongestWaitNs = 100 * kMs;
 int pollTimeoutMs(std::int64_t until_ns, std::int64_t now_ns) {
   const std::int64_t ns = std::clamp<std::int64_t>(until_ns - now_ns, 0, kLongestWaitNs);
   return static_cast<int>((ns + kMs - 1) / kMs);
-}
-
-std::string hostName() {
-  char name[256] = {};
-  if (::gethostname(name, sizeof name - 1) != 0) return "?";
-  return name;
 }
 
 std::vector<std::string> cameraNames(const Rig& rig) {

@@ -4,8 +4,15 @@
 
 #include <systemd/sd-daemon.h>
 #include <time.h>
+#include <unistd.h>
 
 namespace occmap {
+
+std::string hostName() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "?";
+  return name;
+}
 
 ServiceNotifier::ServiceNotifier() {
   std::uint64_t usec = 0;

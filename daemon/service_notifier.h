@@ -6,6 +6,9 @@
 
 namespace occmap {
 
+// This machine's name as the daemon gives it in its messages (status_t, zones_t), "?" if unknown.
+std::string hostName();
+
 // What occmapd tells systemd (sd_notify): READY=1, RELOADING=1, STOPPING=1, STATUS=..., WATCHDOG=1.
 // Outside a Type=notify service (no NOTIFY_SOCKET) every call does nothing.
 class ServiceNotifier {

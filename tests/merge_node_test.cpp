@@ -135,6 +135,15 @@ TEST(MergeNode, PublishesTheFreshInputsMergedAndTurnsAStaleOneUnseen) {
   EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, F, O}));
   EXPECT_EQ(listener.last().cameras[1].state, CameraState::kStreaming);
   EXPECT_EQ(node.inputs()[0].maps, 9u);
+  // East's occmapd restarted: its seq counts from 0 again, its captures are newer: merged.
+  CameraPc east_again(network, "MAP_EAST", g);
+  east_again.publish({O, U, U, F}, 10.0 + 8.5 / 30.0);
+  handleAll(node);
+  west.publish({F, O, U, U}, 10.0 + 9 / 30.0);
+  handleAll(node);
+  listener.drain();
+  EXPECT_EQ(listener.cells(), (std::vector<CellState>{F, O, U, F}));
+  EXPECT_EQ(node.inputs()[1].maps, 3u);
   EXPECT_EQ(node.inputs()[1].lost, 0u);
   EXPECT_EQ(listener.heard(), static_cast<int>(node.published()));
 }
