@@ -36,32 +36,38 @@ void reach(const std::vector<std::int32_t>& along, int& begin, int& end) {
 }  // namespace
 
 MapMerger::MapMerger(const MapGeometry& merged, const std::vector<MapGeometry>& inputs)
-    : merged_(merged, CellState::kUnseen),
-      frees_(merged.cellCount(), 0),
-      sees_(merged.cellCount(), 0) {
+    : merged_(merged, CellState::kUnseen), counts_(merged.cellCount()) {
   if (inputs.size() > 65535) throw std::invalid_argument("MapMerger: more than 65535 inputs");
-  for (const MapGeometry& geometry : inputs) {
-    Input input;
-    input.geometry = geometry;
-    input.row_of = cellsAlong(merged.origin_y_m, merged.cell_size_m, merged.height,
-                              geometry.origin_y_m, geometry.cell_size_m, geometry.height);
-    input.column_of = cellsAlong(merged.origin_x_m, merged.cell_size_m, merged.width,
-                                 geometry.origin_x_m, geometry.cell_size_m, geometry.width);
-    reach(input.row_of, input.rows_begin, input.rows_end);
-    reach(input.column_of, input.columns_begin, input.columns_end);
-    input.applied.assign(geometry.cellCount(), CellState::kUnseen);
-    const auto consecutive = [](const std::vector<std::int32_t>& along, int begin, int end) {
-      for (int i = begin + 1; i < end; ++i) {
-        if (along[static_cast<std::size_t>(i)] != along[static_cast<std::size_t>(i - 1)] + 1) {
-          return false;
-        }
+  for (const MapGeometry& geometry : inputs) inputs_.push_back(placed(geometry));
+}
+
+MapMerger::Input MapMerger::placed(const MapGeometry& geometry) const {
+  const MapGeometry& merged = merged_.geometry;
+  Input input;
+  input.geometry = geometry;
+  input.row_of = cellsAlong(merged.origin_y_m, merged.cell_size_m, merged.height,
+                            geometry.origin_y_m, geometry.cell_size_m, geometry.height);
+  input.column_of = cellsAlong(merged.origin_x_m, merged.cell_size_m, merged.width,
+                               geometry.origin_x_m, geometry.cell_size_m, geometry.width);
+  reach(input.row_of, input.rows_begin, input.rows_end);
+  reach(input.column_of, input.columns_begin, input.columns_end);
+  input.applied.assign(geometry.cellCount(), CellState::kUnseen);
+  const auto consecutive = [](const std::vector<std::int32_t>& along, int begin, int end) {
+    for (int i = begin + 1; i < end; ++i) {
+      if (along[static_cast<std::size_t>(i)] != along[static_cast<std::size_t>(i - 1)] + 1) {
+        return false;
       }
-      return true;
-    };
-    input.one_to_one = consecutive(input.row_of, input.rows_begin, input.rows_end) &&
-                       consecutive(input.column_of, input.columns_begin, input.columns_end);
-    inputs_.push_back(std::move(input));
-  }
+    }
+    return true;
+  };
+  input.one_to_one = consecutive(input.row_of, input.rows_begin, input.rows_end) &&
+                     consecutive(input.column_of, input.columns_begin, input.columns_end);
+  return input;
+}
+
+void MapMerger::reshape(std::size_t k, const MapGeometry& geometry) {
+  update(k, nullptr);  // its counts out of the merged map
+  inputs_[k] = placed(geometry);
 }
 
 void MapMerger::update(std::size_t k, const OccupancyMap* map) {
@@ -100,6 +106,7 @@ void MapMerger::update(std::size_t k, const OccupancyMap* map) {
           if (input.applied[cell] != map->cells[cell]) {
             count(row + static_cast<std::size_t>(input.columns_begin + b + j), input.applied[cell],
                   map->cells[cell]);
+            input.applied[cell] = map->cells[cell];  // each input cell is read once here
           }
         }
       }
@@ -114,7 +121,9 @@ void MapMerger::update(std::size_t k, const OccupancyMap* map) {
     }
   }
   // A merged cell finer than the input's reads an input cell more than once: the cells counted are
-  // recorded after the whole pass.
+  // recorded after the whole pass (one to one, they were as they went; cells beyond the merged
+  // map's reach are never counted, so they may stay as they were).
+  if (input.one_to_one && map != nullptr) return;
   if (map != nullptr) {
     std::copy(map->cells.begin(), map->cells.end(), input.applied.begin());
   } else {
@@ -123,13 +132,14 @@ void MapMerger::update(std::size_t k, const OccupancyMap* map) {
 }
 
 void MapMerger::count(std::size_t i, CellState before, CellState now) {
-  frees_[i] = static_cast<std::uint16_t>(frees_[i] + (now == CellState::kFree) -
-                                         (before == CellState::kFree));
-  sees_[i] = static_cast<std::uint16_t>(sees_[i] + (now != CellState::kUnseen) -
-                                        (before != CellState::kUnseen));
-  merged_.cells[i] = frees_[i] > 0  ? CellState::kFree
-                     : sees_[i] > 0 ? CellState::kOccupied
-                                    : CellState::kUnseen;
+  Counts& c = counts_[i];
+  c.frees = static_cast<std::uint16_t>(c.frees + (now == CellState::kFree) -
+                                       (before == CellState::kFree));
+  c.sees = static_cast<std::uint16_t>(c.sees + (now != CellState::kUnseen) -
+                                      (before != CellState::kUnseen));
+  merged_.cells[i] = c.frees > 0  ? CellState::kFree
+                     : c.sees > 0 ? CellState::kOccupied
+                                  : CellState::kUnseen;
 }
 
 void MapMerger::merge(const std::vector<const OccupancyMap*>& inputs, OccupancyMap& out) {

@@ -34,6 +34,10 @@ class MapMerger {
   // another size.
   void update(std::size_t k, const OccupancyMap* map);
   const OccupancyMap& merged() const { return merged_; }
+  // Input k's maps have another geometry from now on (a camera PC first heard, or reconfigured):
+  // it counts as down until its next update(). Only input k's part is redone, so a node that
+  // hears its PCs one by one at start does not merge everything again for each (allocates).
+  void reshape(std::size_t k, const MapGeometry& geometry);
 
   // Every input at once (`inputs[k]` as for update), the merged map copied to `out`.
   void merge(const std::vector<const OccupancyMap*>& inputs, OccupancyMap& out);
@@ -51,12 +55,18 @@ class MapMerger {
     std::vector<CellState> applied;  // the cells last counted (unseen: nothing)
   };
 
+  Input placed(const MapGeometry& geometry) const;
   // Counts merged cell i anew for input cell `from` going from `before` to `now`.
   void count(std::size_t i, CellState before, CellState now);
 
   OccupancyMap merged_;
-  std::vector<std::uint16_t> frees_;  // per merged cell, inputs that free it
-  std::vector<std::uint16_t> sees_;   // and inputs that see it (free or occupied)
+  // Per merged cell, the inputs that free it and those that see it (free or occupied), side by
+  // side: a changed cell costs one cache line, not two (bench/merge_bench.cpp).
+  struct Counts {
+    std::uint16_t frees = 0;
+    std::uint16_t sees = 0;
+  };
+  std::vector<Counts> counts_;
   std::vector<Input> inputs_;
 };
 

@@ -29,6 +29,10 @@ MergeNode::MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInput
       merged_geometry_(merged),
       freshness_(inputs.size(), max_age_s),
       output_channel_(std::move(output_channel)),
+      // Inputs not heard from yet stand in as one cell each, down: no memory for maps unknown.
+      merger_(merged, std::vector<MapGeometry>(inputs.size(),
+                                               MapGeometry{merged.origin_x_m, merged.origin_y_m,
+                                                           merged.cell_size_m, 1, 1})),
       frame_(merged, inputs.size()),
       encoder_(merged, namesOf(inputs), encoding),
       zones_(merged, zones),
@@ -80,35 +84,22 @@ void MergeNode::heard(std::size_t k, const std::uint8_t* data, std::size_t size,
   ++input.maps;
   freshness_.heard(k, static_cast<double>(decoded.utime) * 1e-6,
                    static_cast<double>(recv_utime) * 1e-6);
-  if (new_geometry || !merger_) {
-    rebuildMerger();
-  } else {
-    // This input's new map where it is fresh, and any input whose freshness this map changed.
-    for (std::size_t j = 0; j < inputs_.size(); ++j) {
-      Input& other = inputs_[j];
-      const bool fresh = freshness_.fresh(j);
-      if (fresh && (j == k || !other.merged)) {
-        merger_->update(j, &*other.map);
-      } else if (!fresh && other.merged) {
-        merger_->update(j, nullptr);
-      }
-      other.merged = fresh;
+  if (new_geometry) {
+    merger_.reshape(k, input.map->geometry);  // counts as down until updated below
+    input.merged = false;
+  }
+  // This input's new map where it is fresh, and any input whose freshness this map changed.
+  for (std::size_t j = 0; j < inputs_.size(); ++j) {
+    Input& other = inputs_[j];
+    const bool fresh = freshness_.fresh(j);
+    if (fresh && (j == k || !other.merged)) {
+      merger_.update(j, &*other.map);
+    } else if (!fresh && other.merged) {
+      merger_.update(j, nullptr);
     }
+    other.merged = fresh;
   }
   if (timeToPublish()) publish(recv_utime);
-}
-
-void MergeNode::rebuildMerger() {
-  // Inputs not heard from yet stand in with the merged geometry; they are down until heard.
-  std::vector<MapGeometry> geometries;
-  for (const Input& input : inputs_) {
-    geometries.push_back(input.map ? input.map->geometry : merged_geometry_);
-  }
-  merger_ = std::make_unique<MapMerger>(merged_geometry_, geometries);
-  for (std::size_t j = 0; j < inputs_.size(); ++j) {
-    inputs_[j].merged = freshness_.fresh(j);
-    if (inputs_[j].merged) merger_->update(j, &*inputs_[j].map);
-  }
 }
 
 bool MergeNode::timeToPublish() const {
@@ -139,7 +130,7 @@ void MergeNode::publish(std::int64_t newest_arrival_utime) {
     part.capture_time_us = input.merged ? input.capture_utime : 0;
     input.new_map = false;
   }
-  frame_.map.cells = merger_->merged().cells;  // same size: no allocation
+  frame_.map.cells = merger_.merged().cells;  // same size: no allocation
   const std::int64_t newest = static_cast<std::int64_t>(*freshness_.newestCaptureS() * 1e6 + 0.5);
   frame_.utime = std::max(newest, last_published_utime_ + 1);
   frame_.seq = static_cast<std::int64_t>(published_ + publish_errors_);

@@ -78,8 +78,6 @@ class MergeNode {
   };
 
   void heard(std::size_t k, const std::uint8_t* data, std::size_t size, std::int64_t recv_utime);
-  // The merger for the inputs' geometries as known now, every fresh input's map in it.
-  void rebuildMerger();
   bool timeToPublish() const;
   void publish(std::int64_t newest_arrival_utime);
 
@@ -89,7 +87,7 @@ class MergeNode {
   MergeInputs freshness_;
   std::string output_channel_;
   MapDecoder decoder_;
-  std::unique_ptr<MapMerger> merger_;  // rebuilt when an input's geometry is first known or changes
+  MapMerger merger_;  // an input's part reshaped when its geometry is first known or changes
   MapFrame frame_;
   MapEncoder encoder_;
   Zones zones_;

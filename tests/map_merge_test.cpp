@@ -86,13 +86,15 @@ TEST(MapMerger, InputsOfAnotherGeometryAreResampled) {
 // The merged map kept up to date input by input is, after every update, the rule applied afresh
 // to every input's current map: inputs finer, coarser, shifted and partly off the merged map, maps
 // changing and inputs going down and up at random.
-TEST(MapMerger, KeptUpToDateInputByInputItIsTheRuleAppliedAfresh) {
+TEST(MapMerger, KeptUpToDateInputByInputAndReshapedItIsTheRuleAppliedAfresh) {
   const MapGeometry merged_geometry{0.0, 0.0, 0.1, 40, 30};
-  const std::vector<MapGeometry> inputs = {{0.0, 0.0, 0.1, 40, 30},    // the same
-                                           {-0.5, 1.0, 0.05, 50, 30},  // finer, off the edge
-                                           {1.0, -0.3, 0.25, 10, 10},  // coarser, shifted
-                                           {3.5, 2.5, 0.1, 20, 20}};   // partly beyond the map
+  std::vector<MapGeometry> inputs = {{0.0, 0.0, 0.1, 40, 30},    // the same
+                                     {-0.5, 1.0, 0.05, 50, 30},  // finer, off the edge
+                                     {1.0, -0.3, 0.25, 10, 10},  // coarser, shifted
+                                     {3.5, 2.5, 0.1, 20, 20}};   // partly beyond the map
   MapMerger merger(merged_geometry, inputs);
+  // Now and then an input's maps change geometry (a PC reconfigured): it takes one of these.
+  const std::vector<MapGeometry> others = {{0.5, 0.5, 0.1, 20, 20}, {-1.0, -1.0, 0.2, 30, 25}};
   std::vector<OccupancyMap> maps;
   for (const MapGeometry& g : inputs) maps.emplace_back(g);
   std::vector<bool> up(inputs.size(), false);
@@ -103,11 +105,18 @@ TEST(MapMerger, KeptUpToDateInputByInputItIsTheRuleAppliedAfresh) {
   };
   for (int step = 0; step < 200; ++step) {
     const std::size_t k = next(static_cast<std::uint32_t>(inputs.size()));
-    up[k] = next(5) != 0;
+    if (step % 23 == 22) {
+      inputs[k] = others[next(2)];
+      maps[k] = OccupancyMap(inputs[k], U);
+      merger.reshape(k, inputs[k]);  // down until its next map
+      up[k] = false;
+    } else {
+      up[k] = next(5) != 0;
+    }
     for (CellState& cell : maps[k].cells) {
       if (next(4) == 0) cell = static_cast<CellState>(next(3));
     }
-    merger.update(k, up[k] ? &maps[k] : nullptr);
+    if (step % 23 != 22) merger.update(k, up[k] ? &maps[k] : nullptr);
     // The rule afresh, cell by cell.
     for (int row = 0; row < merged_geometry.height; ++row) {
       for (int column = 0; column < merged_geometry.width; ++column) {
