@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "base/clock.h"
+#include "transport/footprints_message.h"
 
 namespace occmap {
 namespace {
@@ -36,13 +37,22 @@ MergeNode::MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInput
       frame_(merged, inputs.size()),
       encoder_(merged, namesOf(inputs), encoding),
       zones_(merged, zones),
-      zones_publisher_(output_channel_, std::move(hostname), zones) {
-  for (MergeInputSpec& spec : inputs)
-    inputs_.push_back(Input{std::move(spec), {}, -1, 0, 0, 0, 0, {}});
+      footprints_publisher_(output_channel_, std::move(hostname), zones),
+      found_(inputs.size()),
+      max_age_s_(max_age_s) {
+  for (MergeInputSpec& spec : inputs) {
+    Input input;
+    input.spec = std::move(spec);
+    inputs_.push_back(std::move(input));
+  }
   for (std::size_t k = 0; k < inputs_.size(); ++k) {
     bus_.subscribe(inputs_[k].spec.channel,
                    [this, k](const std::uint8_t* data, std::size_t size, std::int64_t recv_utime) {
                      heard(k, data, size, recv_utime);
+                   });
+    bus_.subscribe(tracksChannel(inputs_[k].spec.channel),
+                   [this, k](const std::uint8_t* data, std::size_t size, std::int64_t) {
+                     heardFootprints(k, data, size);
                    });
   }
 }
@@ -102,6 +112,25 @@ void MergeNode::heard(std::size_t k, const std::uint8_t* data, std::size_t size,
   if (timeToPublish()) publish(recv_utime);
 }
 
+void MergeNode::heardFootprints(std::size_t k, const std::uint8_t* data, std::size_t size) {
+  Input& input = inputs_[k];
+  std::string error;
+  const std::optional<occmap::tracks_t> tracks = decodeTracks(data, size, &error);
+  if (!tracks) {
+    ++input.refused;
+    input.last_error = "tracks: " + error;
+    return;
+  }
+  // Older than what it gave before (reordered on the way; a restarted PC's maps are newer): none.
+  if (tracks->utime < input.footprints_utime) return;
+  input.footprints.clear();
+  for (const occmap::footprint_t& f : tracks->footprints) {
+    input.footprints.push_back({f.x_m, f.y_m, f.area_m2, f.score, f.height_m});
+  }
+  input.footprints_utime = tracks->utime;
+  input.new_footprints = true;
+}
+
 bool MergeNode::timeToPublish() const {
   const std::optional<double> newest = freshness_.newestCaptureS();
   if (!newest || static_cast<std::int64_t>(*newest * 1e6 + 0.5) <= last_published_utime_) {
@@ -143,9 +172,29 @@ void MergeNode::publish(std::int64_t newest_arrival_utime) {
   last_published_utime_ = frame_.utime;
   // The zones' states on this very map, right after it (nothing is sent without zones).
   const double time_s = static_cast<double>(frame_.utime) * 1e-6;
-  zones_publisher_.publishZones(bus_, frame_.seq, frame_.utime,
-                                zones_.update(frame_.map.cells, time_s), time_s);
+  footprints_publisher_.publishZones(bus_, frame_.seq, frame_.utime,
+                                     zones_.update(frame_.map.cells, time_s), time_s);
   last_latency_s_ = static_cast<double>(hostTimeMicroseconds() - newest_arrival_utime) * 1e-6;
+  publishTracks(frame_.seq, frame_.utime);
+}
+
+void MergeNode::publishTracks(std::int64_t seq, std::int64_t utime) {
+  bool news = false;
+  for (std::size_t k = 0; k < inputs_.size(); ++k) {
+    Input& input = inputs_[k];
+    // A fresh input's people found on a map of about the merged map's time: people move.
+    const bool current = input.merged && input.new_footprints &&
+                         static_cast<double>(utime - input.footprints_utime) * 1e-6 <= max_age_s_;
+    found_[k] =
+        current ? std::span<const Detection>(input.footprints) : std::span<const Detection>();
+    news = news || current;
+    if (current) input.new_footprints = false;
+  }
+  if (!news) return;
+  const std::vector<Detection>& found = footprint_merger_.merge(found_);
+  const std::vector<Track>& tracks = tracker_.update(found, static_cast<double>(utime) * 1e-6);
+  tracks_.assign(tracks.begin(), tracks.end());
+  if (footprints_publisher_.publishTracks(bus_, seq, utime, found, tracks)) ++tracks_published_;
 }
 
 std::vector<MergeNode::InputStatus> MergeNode::inputs() const {

@@ -7,9 +7,11 @@
 #include <string>
 #include <vector>
 
+#include "core/footprint_merge.h"
 #include "core/map_frame.h"
 #include "core/map_merge.h"
 #include "core/merge_inputs.h"
+#include "core/tracker.h"
 #include "core/zones.h"
 #include "transport/bus.h"
 #include "transport/footprints_publisher.h"
@@ -27,8 +29,14 @@ namespace occmap {
 // is a frame period (the fastest input's) past the last one published, so that an input that
 // falls behind holds nothing up. Its utime is the newest capture merged; its "cameras" are the
 // inputs (name, streaming or down, used when fresh, the input's map seq and capture time), so
-// `occmap view` and any subscriber see which parts of the floor come from where. Everything runs on
-// the thread that calls spinOnce().
+// `occmap view` and any subscriber see which parts of the floor come from where.
+//
+// The people: each camera PC's occmapd finds them with its own cameras (tracks_t on its map channel
+// + "_TRACKS"); the node merges what the fresh inputs found since the last merged map
+// (core/footprint_merge.h: one person seen by two PCs is one) and tracks them on the merged map
+// (core/tracker.h), sent as tracks_t on the merged channel + "_TRACKS" naming the merged map. An
+// input whose detector is slower than its maps adds its people when it has news; meanwhile its
+// tracks coast. Everything runs on the thread that calls spinOnce().
 struct MergeInputSpec {
   std::string name;
   std::string channel;
@@ -57,6 +65,9 @@ class MergeNode {
     std::optional<double> clock_offset_s;  // against the other inputs (MergeInputs)
   };
   std::vector<InputStatus> inputs() const;
+  // The tracks after the last merged map that carried people (tracks_t sent with it).
+  const std::vector<Track>& tracks() const { return tracks_; }
+  std::uint64_t tracksPublished() const { return tracks_published_; }
   std::uint64_t published() const { return published_; }
   std::uint64_t publishErrors() const { return publish_errors_; }
   // From the newest input map's arrival to the merged map's publish, the last one (seconds).
@@ -75,10 +86,18 @@ class MergeNode {
     bool merged = false;         // its map is in the merged map (it is fresh)
     bool new_map = false;        // a map came since the last merged map went out
     double period_s = 1.0 / 30;  // between its last two captures
+    // The people its occmapd found on its newest map that has them, and that map's capture time.
+    std::vector<Detection> footprints;
+    std::int64_t footprints_utime = 0;
+    bool new_footprints = false;  // not yet given to the tracker
   };
 
   void heard(std::size_t k, const std::uint8_t* data, std::size_t size, std::int64_t recv_utime);
+  void heardFootprints(std::size_t k, const std::uint8_t* data, std::size_t size);
   bool timeToPublish() const;
+  // The people the fresh inputs found since the last time, merged and tracked, sent for the map
+  // just sent (seq, utime); nothing when no input brought news.
+  void publishTracks(std::int64_t seq, std::int64_t utime);
   void publish(std::int64_t newest_arrival_utime);
 
   Bus& bus_;
@@ -91,7 +110,13 @@ class MergeNode {
   MapFrame frame_;
   MapEncoder encoder_;
   Zones zones_;
-  FootprintsPublisher zones_publisher_;
+  FootprintsPublisher footprints_publisher_;  // zones_t and tracks_t
+  FootprintMerger footprint_merger_;
+  Tracker tracker_;
+  std::vector<std::span<const Detection>> found_;  // per input, for footprint_merger_
+  std::vector<Track> tracks_;
+  std::uint64_t tracks_published_ = 0;
+  double max_age_s_;
   std::int64_t last_published_utime_ = 0;
   std::uint64_t published_ = 0;
   std::uint64_t publish_errors_ = 0;

@@ -4,6 +4,7 @@
 // inputs of another geometry are resampled.
 #include "daemon/merge_node.h"
 
+#include <cmath>
 #include <memory>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include "config/input_error.h"
 #include "config/rig.h"
 #include "transport/footprints_message.h"
+#include "transport/footprints_publisher.h"
 #include "transport/map_codec.h"
 #include "transport/memory_bus.h"
 
@@ -200,6 +202,72 @@ TEST(MergeNode, ZonesHaveAStateOnEveryMergedMap) {
   EXPECT_EQ(heard[1].zones[0].state, occmap::zone_t::OCCUPIED);
   EXPECT_EQ(heard[1].zones[0].occupied_cells, 1);
   EXPECT_EQ(heard[1].seq, 1);  // the merged map's own seq
+}
+
+// The people: each PC's occmapd finds them with its own cameras and sends them with its maps; the
+// node merges what two PCs found of one person into one and tracks them on the merged map.
+TEST(MergeNode, PeopleFoundByTwoPcsAreOnePersonTrackedOnTheMergedMap) {
+  MemoryNetwork network;
+  const MapGeometry g{0.0, 0.0, 0.1, 100, 50};  // 10 m x 5 m
+  auto node_bus = network.connect();
+  MergeNode node(*node_bus, g, {{"west", "MAP_WEST"}, {"east", "MAP_EAST"}}, 0.150, "MERGED",
+                 MapEncoding::kZstd);
+  auto listener = network.connect();
+  std::vector<occmap::tracks_t> heard;
+  listener->subscribe(tracksChannel("MERGED"),
+                      [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+                        const auto decoded = decodeTracks(data, size);
+                        ASSERT_TRUE(decoded);
+                        heard.push_back(*decoded);
+                      });
+  CameraPc west(network, "MAP_WEST", g);
+  CameraPc east(network, "MAP_EAST", g);
+  auto west_people = network.connect();
+  auto east_people = network.connect();
+  FootprintsPublisher west_found("MAP_WEST", "west-pc", {});
+  FootprintsPublisher east_found("MAP_EAST", "east-pc", {});
+  const std::vector<CellState> floor(g.cellCount(), F);
+  // Ann walks east through the middle, where both PCs see her (each a few cm off); Bob stands in
+  // the east, which only east sees; Cy and Dee stand 0.4 m apart in the west, seen by west alone:
+  // two people, never joined.
+  for (int frame = 0; frame < 20; ++frame) {
+    const double t = 5.0 + frame / 30.0;
+    const double ann_x = 4.0 + 1.2 * (t - 5.0);
+    const std::vector<Detection> by_west = {{ann_x + 0.03, 2.5, 0.2, 0.8, 1.75},
+                                            {1.0, 1.0, 0.2, 0.9, 1.75},
+                                            {1.0, 1.4, 0.2, 0.9, 1.75}};
+    const std::vector<Detection> by_east = {{ann_x - 0.04, 2.52, 0.25, 0.6, 1.75},
+                                            {8.0, 3.0, 0.2, 0.7, 1.75}};
+    west.publish(floor, t);
+    ASSERT_TRUE(west_found.publishTracks(*west_people, frame, static_cast<std::int64_t>(t * 1e6),
+                                         by_west, {}));
+    handleAll(node);
+    east.publish(floor, t + 0.002);
+    ASSERT_TRUE(east_found.publishTracks(
+        *east_people, frame, static_cast<std::int64_t>((t + 0.002) * 1e6), by_east, {}));
+    handleAll(node);
+  }
+  while (listener->handleTimeout(0) > 0) {
+  }
+  ASSERT_FALSE(heard.empty());
+  const occmap::tracks_t& last = heard.back();
+  EXPECT_EQ(last.num_footprints, 4) << "Ann once, Bob, Cy and Dee";
+  ASSERT_EQ(last.num_tracks, 4);
+  EXPECT_EQ(node.tracks().size(), 4u);
+  const double ann_x = 4.0 + 1.2 * 19 / 30.0;
+  bool ann = false;
+  for (const occmap::track_t& track : last.tracks) {
+    if (std::abs(track.y_m - 2.5) < 0.1) {
+      ann = true;
+      // Between the two PCs' places for her, nearer the surer one's.
+      EXPECT_NEAR(track.x_m, ann_x, 0.05);
+      EXPECT_NEAR(track.vx_m_s, 1.2, 0.3);
+    }
+  }
+  EXPECT_TRUE(ann);
+  // Every tracks_t names a merged map that was sent.
+  EXPECT_LE(last.seq, static_cast<std::int64_t>(node.published()) - 1);
+  EXPECT_GE(node.tracksPublished(), 15u);
 }
 
 InputError configError(const std::string& text) {
