@@ -1,16 +1,21 @@
-// occmapd as a merge node on a real network made by the test (UDP multicast on a private loopback:
-// nothing leaves it): two camera PCs' daemons, each with two of the simulated room's cameras on a
-// channel of its own, and a merge node publishing one map. Their merged maps come with both inputs
-// streaming; one PC killed is down in the merged maps once its newest map is max_age_ms behind the
-// other's (its cells unseen), and merged again once it is back.
+// occmapd as a merge node on a LAN made by the test (tests/lan.h: machines in network namespaces
+// of their own on a bridge, UDP multicast with ttl=1 through it; nothing leaves the test's own
+// namespace): two camera PCs' daemons, each with two of the simulated room's cameras on a channel
+// of its own, a merge node publishing one map, and lcm-logger on a fourth machine. The logger
+// records the merged maps at the inputs' rate, none lost; one PC killed is down in the merged maps
+// once its newest map is max_age_ms behind the other's (its cells unseen), and merged again once it
+// is back.
 #include <chrono>
+#include <map>
 #include <optional>
 #include <string>
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
 
 #include "child_process.h"
+#include "lan.h"
 #include "network_namespace.h"
 #include "notify_listener.h"
 #include "sim_room_config.h"
@@ -27,7 +32,8 @@ using testing::NotifyListener;
 using testing::TemporaryFolder;
 
 const std::string kOccmapd = OCCMAP_BINARY_DIR "/daemon/occmapd";
-const std::string kUrl = "udpm://239.255.76.67:7667?ttl=0";
+// ttl=1: one hop, through the bridge to the other machines (ttl=0 would never leave a machine).
+const std::string kUrl = "udpm://239.255.76.67:7667?ttl=1";
 
 // A camera PC: the test's simulated room with two of its cameras, maps on their own channel.
 std::string cameraPcConfig(const std::string& name, const std::string& first,
@@ -53,18 +59,22 @@ std::string mergeNodeConfig() {
          "    - {name: east, channel: OCCMAP_MAP_EAST}\n";
 }
 
+// A daemon on a machine of its own on the LAN.
 struct Daemon {
   std::optional<NotifyListener> systemd;
-  ChildProcess process;
-  Daemon(const TemporaryFolder& folder, const std::string& name, const std::string& config)
+  std::unique_ptr<ChildProcess> process;
+  Daemon(testing::Lan& lan, const TemporaryFolder& folder, const std::string& name, int host,
+         const std::string& config)
       : systemd(std::in_place, folder / (name + ".notify")),
-        process({kOccmapd, "--config", folder.write(name + ".yaml", config).string()},
-                folder / name, {{"NOTIFY_SOCKET", (folder / (name + ".notify")).string()}}) {}
+        process(lan.start(
+            name, host, {kOccmapd, "--config", folder.write(name + ".yaml", config).string()},
+            folder / name, {{"NOTIFY_SOCKET", (folder / (name + ".notify")).string()}})) {}
   bool ready() {
-    const bool ready = systemd->collect(testing::eventually(30s), "READY=1");
+    const bool ready = process && systemd->collect(testing::eventually(30s), "READY=1");
     systemd.reset();  // a socket nobody reads would fill and block the daemon's sd_notify
     return ready;
   }
+  std::string err() const { return process ? process->err() : "not started"; }
 };
 
 // The merged maps as they arrive, in this process's network.
@@ -108,30 +118,89 @@ bool streaming(const DecodedMap& map, std::size_t input) {
   return map.cameras.size() == 2 && map.cameras[input].state == CameraState::kStreaming;
 }
 
-TEST(MergeDaemon, TwoCameraPcsMergedAndOneKilledIsDownThenBack) {
+// The merged maps in an lcm-logger recording, and the inputs' maps beside them.
+struct Recording {
+  std::map<std::string, int> maps;  // per channel
+  int merged_gaps = 0;              // merged maps missing between two recorded
+  double merged_seconds = 0;        // from the first merged map's capture to the last's
+};
+
+Recording readRecording(const std::filesystem::path& log) {
+  Recording recording;
+  lcm::LogFile file(log.string(), "r");
+  EXPECT_TRUE(file.good()) << "lcm-logger wrote no readable log";
+  if (!file.good()) return recording;
+  MapDecoder decoder;
+  std::int64_t previous = -1, first_utime = 0, last_utime = 0;
+  while (const lcm::LogEvent* event = file.readNextEvent()) {
+    ++recording.maps[event->channel];
+    if (event->channel != "OCCMAP_MAP") continue;
+    const DecodedMap& map = decoder.decode(event->data, static_cast<std::size_t>(event->datalen));
+    EXPECT_TRUE(map.ok()) << map.error;
+    if (!map.ok()) continue;
+    if (previous >= 0 && map.seq > previous + 1) {
+      recording.merged_gaps += static_cast<int>(map.seq - previous - 1);
+    }
+    previous = map.seq;
+    if (first_utime == 0) first_utime = map.utime;
+    last_utime = map.utime;
+  }
+  recording.merged_seconds = static_cast<double>(last_utime - first_utime) * 1e-6;
+  return recording;
+}
+
+TEST(MergeDaemon, TwoCameraPcsMergedOnALanRecordedByAFourthAndOneKilledIsDownThenBack) {
   if (const std::string& problem = testing::enterPrivateNetwork(); !problem.empty()) {
     GTEST_SKIP() << problem;
   }
+  testing::Lan lan;
+  if (const std::string problem = lan.up(); !problem.empty()) GTEST_SKIP() << problem;
   TemporaryFolder folder;
-  Daemon merge(folder, "merge", mergeNodeConfig());
-  ASSERT_TRUE(merge.ready()) << merge.process.err();
-  auto west = std::make_unique<Daemon>(folder, "west", cameraPcConfig("WEST", "c0", "c1"));
-  Daemon east(folder, "east", cameraPcConfig("EAST", "c2", "c3"));
-  ASSERT_TRUE(west->ready()) << west->process.err();
-  ASSERT_TRUE(east.ready()) << east.process.err();
+  Daemon merge(lan, folder, "merge", 2, mergeNodeConfig());
+  ASSERT_TRUE(merge.ready()) << lan.error() << merge.err();
+  auto west = std::make_unique<Daemon>(lan, folder, "west", 3, cameraPcConfig("WEST", "c0", "c1"));
+  Daemon east(lan, folder, "east", 4, cameraPcConfig("EAST", "c2", "c3"));
+  ASSERT_TRUE(west->ready()) << lan.error() << west->err();
+  ASSERT_TRUE(east.ready()) << lan.error() << east.err();
 
+  // This process watches from the bridge's own address: a fifth machine.
   MergedMaps maps;
   ASSERT_TRUE(maps.until(testing::eventually(10s), [](const DecodedMap& map) {
     return streaming(map, 0) && streaming(map, 1);
-  })) << merge.process.err();
+  })) << merge.err();
   EXPECT_EQ(maps.last().cameras[0].name, "west");
   EXPECT_EQ(maps.last().cameras[1].name, "east");
   const long long unseen_with_both = unseenCells(maps.last());
   const std::int64_t west_last_seen = maps.last().cameras[0].capture_utime;
   EXPECT_GT(west_last_seen, 0);
 
+  // lcm-logger on a fourth machine: every merged map, at the rate the PCs make theirs.
+  const auto log = folder / "merged.lcmlog";
+  auto logger =
+      lan.start("logger", 5, {"/usr/bin/lcm-logger", "--lcm-url=" + kUrl, "-q", "-f", log.string()},
+                folder / "logger");
+  ASSERT_TRUE(logger) << lan.error();
+  std::this_thread::sleep_for(4s);
+  logger->signal(SIGINT);
+  ASSERT_TRUE(logger->waitExit(5s)) << logger->err();
+  const Recording recording = readRecording(log);
+  const int merged = recording.maps.count("OCCMAP_MAP") ? recording.maps.at("OCCMAP_MAP") : 0;
+  const int from_west =
+      recording.maps.count("OCCMAP_MAP_WEST") ? recording.maps.at("OCCMAP_MAP_WEST") : 0;
+  const int from_east =
+      recording.maps.count("OCCMAP_MAP_EAST") ? recording.maps.at("OCCMAP_MAP_EAST") : 0;
+  std::printf(
+      "lcm-logger on a fourth machine: %d merged maps in %.2f s (%d missing), west %d, east %d\n",
+      merged, recording.merged_seconds, recording.merged_gaps, from_west, from_east);
+  EXPECT_GT(merged, 0);
+  EXPECT_EQ(recording.merged_gaps, 0) << "merged maps lost on the way to the logger";
+  if (!testing::kSanitized) {
+    // A merged map for every pair of the PCs' maps (a few at the recording's ends aside).
+    EXPECT_GE(merged, std::min(from_west, from_east) - 3) << "the merged maps keep the PCs' rate";
+  }
+
   // West is killed: down once its newest map is 150 ms behind east's, and its cells unseen.
-  west->process.signal(SIGKILL);
+  west->process->signal(SIGKILL);
   const auto killed = std::chrono::steady_clock::now();
   ASSERT_TRUE(maps.until(testing::eventually(5s), [](const DecodedMap& map) {
     return map.cameras.size() == 2 && map.cameras[0].state == CameraState::kDown;
@@ -145,10 +214,10 @@ TEST(MergeDaemon, TwoCameraPcsMergedAndOneKilledIsDownThenBack) {
     EXPECT_LT(down_after_s, 0.150 + 0.100 + 0.250) << "generous on a busy CI";
   }
 
-  // Back: merged again.
+  // Back, on a machine started anew: merged again.
   west.reset();
-  west = std::make_unique<Daemon>(folder, "west2", cameraPcConfig("WEST", "c0", "c1"));
-  ASSERT_TRUE(west->ready()) << west->process.err();
+  west = std::make_unique<Daemon>(lan, folder, "west2", 6, cameraPcConfig("WEST", "c0", "c1"));
+  ASSERT_TRUE(west->ready()) << lan.error() << west->err();
   const auto back = std::chrono::steady_clock::now();
   ASSERT_TRUE(maps.until(testing::eventually(5s), [](const DecodedMap& map) {
     return streaming(map, 0) && streaming(map, 1);
@@ -161,11 +230,9 @@ TEST(MergeDaemon, TwoCameraPcsMergedAndOneKilledIsDownThenBack) {
   }
   EXPECT_LE(unseenCells(maps.last()), unseen_with_both + unseen_with_both / 10);
 
-  merge.process.signal(SIGTERM);
-  EXPECT_EQ(merge.process.waitExit(testing::eventually(5s)).value_or(-100), 0)
-      << merge.process.err();
-  EXPECT_NE(merge.process.err().find("merge node ready: 2 inputs"), std::string::npos)
-      << merge.process.err();
+  merge.process->signal(SIGTERM);
+  EXPECT_EQ(merge.process->waitExit(testing::eventually(5s)).value_or(-100), 0) << merge.err();
+  EXPECT_NE(merge.err().find("merge node ready: 2 inputs"), std::string::npos) << merge.err();
 }
 
 }  // namespace
