@@ -33,6 +33,9 @@ struct MapGeometry {
   }
   // The cell containing floor point (x, y), if it lies on the map.
   std::optional<int> cellAt(double x, double y) const;
+
+  // The very same raster (a map received is compared with the one expected: exact, no tolerance).
+  bool operator==(const MapGeometry&) const = default;
 };
 
 // What the map says of one cell. The values are those of map_frame_t and of the PNG maps' meaning.

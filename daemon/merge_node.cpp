@@ -16,11 +16,6 @@ std::vector<std::string> namesOf(const std::vector<MergeInputSpec>& inputs) {
   return names;
 }
 
-bool sameGeometry(const MapGeometry& a, const MapGeometry& b) {
-  return a.origin_x_m == b.origin_x_m && a.origin_y_m == b.origin_y_m &&
-         a.cell_size_m == b.cell_size_m && a.width == b.width && a.height == b.height;
-}
-
 }  // namespace
 
 MergeNode::MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInputSpec> inputs,
@@ -77,7 +72,7 @@ void MergeNode::heard(std::size_t k, const std::uint8_t* data, std::size_t size,
   if (input.seq >= 0 && decoded.seq > input.seq + 1) {
     input.lost += static_cast<std::uint64_t>(decoded.seq - input.seq - 1);
   }
-  const bool new_geometry = !input.map || !sameGeometry(input.map->geometry, decoded.geometry);
+  const bool new_geometry = !input.map || input.map->geometry != decoded.geometry;
   if (new_geometry) input.map.emplace(decoded.geometry);
   // The decoder refused any cell value but 0, 1 and 2, CellState's own values: the bytes as they
   // are.

@@ -18,12 +18,8 @@ bool sameMap(const DecodedMap& a, const DecodedMap& b) {
     return x.name == y.name && x.state == y.state && x.used == y.used && x.sequence == y.sequence &&
            x.capture_utime == y.capture_utime;
   };
-  return a.ok() == b.ok() && a.utime == b.utime && a.seq == b.seq &&
-         a.geometry.width == b.geometry.width && a.geometry.height == b.geometry.height &&
-         a.geometry.cell_size_m == b.geometry.cell_size_m &&
-         a.geometry.origin_x_m == b.geometry.origin_x_m &&
-         a.geometry.origin_y_m == b.geometry.origin_y_m && a.encoding == b.encoding &&
-         a.cells == b.cells &&
+  return a.ok() == b.ok() && a.utime == b.utime && a.seq == b.seq && a.geometry == b.geometry &&
+         a.encoding == b.encoding && a.cells == b.cells &&
          std::equal(a.cameras.begin(), a.cameras.end(), b.cameras.begin(), b.cameras.end(),
                     sameCamera);
 }
