@@ -56,7 +56,7 @@ constexpr std::string_view kLightingKeys[] = {
     "adapt", "drift_frames", "min_agreement", "min_agreement_in_place", "agreement_grey_levels",
     "local"};
 constexpr std::string_view kTransportKeys[] = {"lcm_url", "map_channel", "status_channel",
-                                               "encoding"};
+                                               "encoding", "tiles"};
 constexpr std::string_view kControlKeys[] = {"enabled", "key_file", "replay_window_s"};
 constexpr std::string_view kCameraKeys[] = {
     "name",         "source",     "calibration", "calibration_units",
@@ -551,6 +551,8 @@ class ConfigReader {
           fail(entry.value.line, entry.value.field,
                "is \"" + transport.encoding + "\"; use raw or zstd");
         }
+      } else if (entry.key == "tiles") {
+        transport.tiles = boolean(entry.value);
       }
     }
     if (transport.map_channel == transport.status_channel) {

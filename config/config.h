@@ -47,6 +47,10 @@ struct TransportSettings {
   std::string map_channel = "OCCMAP_MAP";
   std::string status_channel = "OCCMAP_STATUS";
   std::string encoding = "zstd";  // "raw" or "zstd"
+  // Each map as map_tile_t tiles of at most 60 KiB on map_channel + "_TILES" instead of one
+  // map_frame_t on map_channel: for maps whose encoded size can exceed one datagram
+  // (docs/daemon.md).
+  bool tiles = false;
 };
 
 // State-changing requests over LCM (docs/control.md): off unless enabled; then each must carry an

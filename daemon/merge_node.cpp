@@ -20,7 +20,7 @@ std::vector<std::string> namesOf(const std::vector<MergeInputSpec>& inputs) {
 
 MergeNode::MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInputSpec> inputs,
                      double max_age_s, std::string output_channel, MapEncoding encoding,
-                     std::span<const ZoneSpec> zones, std::string hostname)
+                     std::span<const ZoneSpec> zones, std::string hostname, MapMessages messages)
     : bus_(bus),
       merged_geometry_(merged),
       freshness_(inputs.size(), max_age_s),
@@ -30,7 +30,8 @@ MergeNode::MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInput
                                                MapGeometry{merged.origin_x_m, merged.origin_y_m,
                                                            merged.cell_size_m, 1, 1})),
       frame_(merged, inputs.size()),
-      encoder_(merged, namesOf(inputs), encoding),
+      publisher_(merged, namesOf(inputs), encoding, output_channel_, "the merged map's bus",
+                 messages),
       zones_(merged, zones),
       footprints_publisher_(output_channel_, std::move(hostname), zones),
       found_(inputs.size()),
@@ -41,10 +42,14 @@ MergeNode::MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInput
     inputs_.push_back(std::move(input));
   }
   for (std::size_t k = 0; k < inputs_.size(); ++k) {
-    bus_.subscribe(inputs_[k].spec.channel,
-                   [this, k](const std::uint8_t* data, std::size_t size, std::int64_t recv_utime) {
-                     heard(k, data, size, recv_utime);
-                   });
+    receivers_.push_back(std::make_unique<MapReceiver>(
+        bus_, inputs_[k].spec.channel,
+        [this, k](const DecodedMap& map, std::int64_t recv_utime) {
+          const std::int64_t start_ns = monotonicNanoseconds();
+          heard(k, map, recv_utime);
+          merge_times_.record(monotonicNanoseconds() - start_ns);
+        },
+        [this, k](const std::string&, std::size_t, const std::string& why) { refused(k, why); }));
     bus_.subscribe(tracksChannel(inputs_[k].spec.channel),
                    [this, k](const std::uint8_t* data, std::size_t size, std::int64_t) {
                      heardFootprints(k, data, size);
@@ -54,15 +59,14 @@ MergeNode::MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInput
 
 int MergeNode::spinOnce(int timeout_ms) { return bus_.handleTimeout(timeout_ms); }
 
-void MergeNode::heard(std::size_t k, const std::uint8_t* data, std::size_t size,
-                      std::int64_t recv_utime) {
+void MergeNode::refused(std::size_t k, const std::string& why) {
+  ++inputs_[k].refused;
+  inputs_[k].last_error = why;
+}
+
+void MergeNode::heard(std::size_t k, const DecodedMap& decoded, std::int64_t recv_utime) {
   Input& input = inputs_[k];
-  const DecodedMap& decoded = decoder_.decode(data, size);
-  if (!decoded.ok()) {
-    ++input.refused;
-    input.last_error = decoded.error;
-    return;
-  }
+  input.tiles_lost += static_cast<std::uint64_t>(receivers_[k]->tilesOfMap().missing);
   // Old or repeated: nothing new. A seq that starts again with a newer capture is the PC's occmapd
   // restarted (its seq counts from 0), not an old map: taken, or the PC would stay down until its
   // new seq passed the old one.
@@ -157,13 +161,8 @@ void MergeNode::publish(std::int64_t newest_arrival_utime) {
   frame_.map.cells = merger_.merged().cells;  // same size: no allocation
   const std::int64_t newest = static_cast<std::int64_t>(*freshness_.newestCaptureS() * 1e6 + 0.5);
   frame_.utime = std::max(newest, last_published_utime_ + 1);
-  frame_.seq = static_cast<std::int64_t>(published_ + publish_errors_);
-  const std::span<const std::uint8_t> message = encoder_.encode(frame_);
-  if (message.empty() || !bus_.publish(output_channel_, message)) {
-    ++publish_errors_;
-    return;
-  }
-  ++published_;
+  // Numbered by the publisher: a map that could not be sent is a gap its subscribers see.
+  if (!publisher_.publish(bus_, frame_)) return;
   last_published_utime_ = frame_.utime;
   // The zones' states on this very map, right after it (nothing is sent without zones).
   const double time_s = static_cast<double>(frame_.utime) * 1e-6;
@@ -203,6 +202,7 @@ std::vector<MergeNode::InputStatus> MergeNode::inputs() const {
     s.fresh = freshness_.fresh(k);
     s.maps = input.maps;
     s.lost = input.lost;
+    s.tiles_lost = input.tiles_lost;
     s.refused = input.refused;
     s.last_error = input.last_error;
     if (const std::optional<double> capture = freshness_.captureS(k); capture && newest) {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "base/time_histogram.h"
 #include "core/footprint_merge.h"
 #include "core/map_frame.h"
 #include "core/map_merge.h"
@@ -16,6 +17,8 @@
 #include "transport/bus.h"
 #include "transport/footprints_publisher.h"
 #include "transport/map_codec.h"
+#include "transport/map_publisher.h"
+#include "transport/map_receiver.h"
 
 namespace occmap {
 
@@ -44,11 +47,14 @@ struct MergeInputSpec {
 
 class MergeNode {
  public:
-  // `zones` (the config's) get a state on every merged map, sent right after it as occmapd sends
-  // them (zones_t on the map channel + "_ZONES"), from the merged map's cells alone.
+  // Inputs' maps are heard whole or in tiles (transport/map_receiver.h), whichever each PC sends;
+  // the merged map goes out as `messages` says (tiles for a large floor: docs/daemon.md). `zones`
+  // (the config's) get a state on every merged map, sent right after it as occmapd sends them
+  // (zones_t on the map channel + "_ZONES"), from the merged map's cells alone.
   MergeNode(Bus& bus, const MapGeometry& merged, std::vector<MergeInputSpec> inputs,
             double max_age_s, std::string output_channel, MapEncoding encoding,
-            std::span<const ZoneSpec> zones = {}, std::string hostname = "merge");
+            std::span<const ZoneSpec> zones = {}, std::string hostname = "merge",
+            MapMessages messages = MapMessages::kWhole);
 
   // Handles what arrives within `timeout_ms`: > 0 handled, 0 timed out, < 0 a bus error.
   int spinOnce(int timeout_ms);
@@ -57,9 +63,10 @@ class MergeNode {
     std::string name;
     std::string channel;
     bool fresh = false;
-    std::uint64_t maps = 0;     // maps heard
-    std::uint64_t lost = 0;     // gaps in the input's seq
-    std::uint64_t refused = 0;  // messages that did not decode, or of a map too large
+    std::uint64_t maps = 0;        // maps heard
+    std::uint64_t lost = 0;        // gaps in the input's seq
+    std::uint64_t tiles_lost = 0;  // tiles of its tiled maps that never came
+    std::uint64_t refused = 0;     // messages that did not decode, or of a map too large
     std::string last_error;
     std::optional<double> age_s;           // behind the newest input's newest capture
     std::optional<double> clock_offset_s;  // against the other inputs (MergeInputs)
@@ -68,8 +75,12 @@ class MergeNode {
   // The tracks after the last merged map that carried people (tracks_t sent with it).
   const std::vector<Track>& tracks() const { return tracks_; }
   std::uint64_t tracksPublished() const { return tracks_published_; }
-  std::uint64_t published() const { return published_; }
-  std::uint64_t publishErrors() const { return publish_errors_; }
+  std::uint64_t published() const { return publisher_.published(); }
+  // Messages that could not be sent: merged maps, or their tiles (each one an error).
+  std::uint64_t publishErrors() const { return publisher_.errors(); }
+  // From an input map (decoded) to its merge done, the merged map and its zones and tracks sent
+  // when it made one: the node's work per input map.
+  const TimeHistogram& mergeTimes() const { return merge_times_; }
   // From the newest input map's arrival to the merged map's publish, the last one (seconds).
   double lastLatencyS() const { return last_latency_s_; }
   // The map last published.
@@ -81,7 +92,7 @@ class MergeNode {
     std::optional<OccupancyMap> map;  // the newest map, of its own geometry
     std::int64_t seq = -1;
     std::int64_t capture_utime = 0;
-    std::uint64_t maps = 0, lost = 0, refused = 0;
+    std::uint64_t maps = 0, lost = 0, tiles_lost = 0, refused = 0;
     std::string last_error;
     bool merged = false;         // its map is in the merged map (it is fresh)
     bool new_map = false;        // a map came since the last merged map went out
@@ -92,7 +103,8 @@ class MergeNode {
     bool new_footprints = false;  // not yet given to the tracker
   };
 
-  void heard(std::size_t k, const std::uint8_t* data, std::size_t size, std::int64_t recv_utime);
+  void heard(std::size_t k, const DecodedMap& decoded, std::int64_t recv_utime);
+  void refused(std::size_t k, const std::string& why);
   void heardFootprints(std::size_t k, const std::uint8_t* data, std::size_t size);
   bool timeToPublish() const;
   // The people the fresh inputs found since the last time, merged and tracked, sent for the map
@@ -105,10 +117,10 @@ class MergeNode {
   std::vector<Input> inputs_;
   MergeInputs freshness_;
   std::string output_channel_;
-  MapDecoder decoder_;
+  std::vector<std::unique_ptr<MapReceiver>> receivers_;  // one per input
   MapMerger merger_;  // an input's part reshaped when its geometry is first known or changes
   MapFrame frame_;
-  MapEncoder encoder_;
+  MapPublisher publisher_;
   Zones zones_;
   FootprintsPublisher footprints_publisher_;  // zones_t and tracks_t
   FootprintMerger footprint_merger_;
@@ -118,8 +130,7 @@ class MergeNode {
   std::uint64_t tracks_published_ = 0;
   double max_age_s_;
   std::int64_t last_published_utime_ = 0;
-  std::uint64_t published_ = 0;
-  std::uint64_t publish_errors_ = 0;
+  TimeHistogram merge_times_;
   double last_latency_s_ = 0;
 };
 

@@ -68,10 +68,11 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
                  {static_cast<std::int64_t>(prepared_.rig.config().fusion.max_wait_ms) * kMs,
                   std::chrono::nanoseconds(options_.heartbeat).count()}),
       maps_(emptyMap(prepared_.rig), emptyMap(prepared_.rig), emptyMap(prepared_.rig)),
-      map_publisher_(prepared_.rig.config().map, cameraNames(prepared_.rig),
-                     parseMapEncoding(prepared_.rig.config().transport.encoding).value(),
-                     prepared_.rig.config().transport.map_channel,
-                     prepared_.rig.config().transport.lcm_url),
+      map_publisher_(
+          prepared_.rig.config().map, cameraNames(prepared_.rig),
+          parseMapEncoding(prepared_.rig.config().transport.encoding).value(),
+          prepared_.rig.config().transport.map_channel, prepared_.rig.config().transport.lcm_url,
+          prepared_.rig.config().transport.tiles ? MapMessages::kTiles : MapMessages::kWhole),
       footprints_publisher_(prepared_.rig.config().transport.map_channel, hostName(),
                             prepared_.rig.config().zones) {
   const Config& config = prepared_.rig.config();

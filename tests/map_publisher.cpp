@@ -1,10 +1,12 @@
 // map_publisher: a stand-in for occmapd's LCM side in the transport tests. It publishes scene maps
-// (tests/map_scenes.h) through MapEncoder and LcmBus at a steady rate, with each map its zones and
-// tracks if asked (tests/footprint_scenes.h), can leave sequence numbers out and send undecodable
-// messages first (to test what receivers count), and can answer status requests as the daemon
-// would.
+// (tests/map_scenes.h), or random ones (tests/tiled_maps.h), through MapEncoder (or, with --tiles,
+// MapTileEncoder: map_tile_t on the channel + _TILES) and LcmBus at a steady rate, with each map
+// its zones and tracks if asked (tests/footprint_scenes.h), can leave sequence numbers or single
+// tiles out and send undecodable messages first (to test what receivers count), and can answer
+// status requests as the daemon would.
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -16,9 +18,11 @@
 
 #include "footprint_scenes.h"
 #include "map_scenes.h"
+#include "tiled_maps.h"
 #include "transport/footprints_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
+#include "transport/map_tiles.h"
 
 namespace {
 
@@ -45,6 +49,9 @@ struct Options {
   int garbage = 0;
   double answer_status = 0;
   bool zones_and_tracks = false;
+  bool tiles = false;
+  std::string cells = "scene";
+  std::vector<std::string> drop_tiles;  // "SEQ:INDEX"
 };
 
 // Answers status requests for `seconds` with a made-up daemon of two cameras.
@@ -99,13 +106,27 @@ int answerStatus(LcmBus& bus, const Options& o) {
 int publishMaps(LcmBus& bus, const Options& o) {
   const MapGeometry geometry{-0.5, -1.5, 0.02, o.width, o.height};
   const auto names = testing::sceneCameraNames(static_cast<std::size_t>(o.cameras));
-  MapEncoder encoder(geometry, names, parseMapEncoding(o.encoding).value());
+  const MapEncoding encoding = parseMapEncoding(o.encoding).value();
+  std::optional<MapEncoder> encoder;
+  std::optional<MapTileEncoder> tile_encoder;
+  if (o.tiles) {
+    tile_encoder.emplace(geometry, names, encoding);
+  } else {
+    encoder.emplace(geometry, names, encoding);
+  }
+  const std::string map_channel = o.tiles ? tilesChannel(o.channel) : o.channel;
   MapFrame frame(geometry, names.size());
   for (int g = 0; g < o.garbage; ++g) {
     const std::vector<std::uint8_t> garbage(100, static_cast<std::uint8_t>(g + 1));
-    bus.publish(o.channel, garbage);
+    bus.publish(map_channel, garbage);
   }
   const std::set<std::int64_t> drop(o.drop.begin(), o.drop.end());
+  std::set<std::pair<std::int64_t, int>> drop_tiles;
+  for (const std::string& item : o.drop_tiles) {
+    const std::size_t colon = item.find(':');
+    drop_tiles.insert({std::stoll(item.substr(0, colon)), std::stoi(item.substr(colon + 1))});
+  }
+  long long tiles_sent = 0;
   const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(1.0 / o.rate));
   auto next = std::chrono::steady_clock::now();
@@ -123,26 +144,53 @@ int publishMaps(LcmBus& bus, const Options& o) {
     std::this_thread::sleep_until(next);
     next += period;
     if (drop.count(seq) != 0) continue;
-    testing::fillScene(frame, seq);
+    if (o.cells == "random") {
+      testing::fillRandom(frame, seq);
+    } else {
+      testing::fillScene(frame, seq);
+    }
     // As the daemon's: the newest camera frame was captured just before the map was made.
     frame.utime = nowUtime();
     for (CameraContribution& camera : frame.cameras) {
       if (camera.used) camera.capture_time_us = frame.utime - 2000;
     }
-    const auto message = encoder.encode(frame);
-    largest = std::max(largest, message.size());
-    if (!message.empty() && bus.publish(o.channel, message)) {
-      ++published;
+    if (tile_encoder) {
+      bool all = true;
+      for (int index = 0; index < tile_encoder->tileCount(); ++index) {
+        if (drop_tiles.count({seq, index}) != 0) continue;
+        const auto message = tile_encoder->encode(frame, index);
+        largest = std::max(largest, message.size());
+        if (!message.empty() && bus.publish(map_channel, message)) {
+          ++tiles_sent;
+        } else {
+          all = false;
+        }
+      }
+      (all ? published : failed) += 1;
     } else {
-      ++failed;
+      const auto message = encoder->encode(frame);
+      largest = std::max(largest, message.size());
+      if (!message.empty() && bus.publish(o.channel, message)) {
+        ++published;
+      } else {
+        ++failed;
+      }
     }
     if (o.zones_and_tracks) {
       publishBeside(zonesChannel(o.channel), testing::sceneZones(seq, frame.utime));
       publishBeside(tracksChannel(o.channel), testing::sceneTracks(seq, frame.utime));
     }
   }
-  std::printf("published %d maps (%s, %d x %d, largest message %zu bytes), %d failed\n", published,
-              o.encoding.c_str(), o.width, o.height, largest, failed);
+  if (tile_encoder) {
+    std::printf(
+        "published %d maps in %lld tiles of side %d (%d a map; %s, %d x %d, largest "
+        "message %zu bytes), %d failed\n",
+        published, tiles_sent, tile_encoder->tileSide(), tile_encoder->tileCount(),
+        o.encoding.c_str(), o.width, o.height, largest, failed);
+  } else {
+    std::printf("published %d maps (%s, %d x %d, largest message %zu bytes), %d failed\n",
+                published, o.encoding.c_str(), o.width, o.height, largest, failed);
+  }
   return failed == 0 ? 0 : 1;
 }
 
@@ -163,6 +211,10 @@ int main(int argc, char** argv) {
   app.add_option("--first-seq", o.first_seq);
   app.add_option("--drop", o.drop, "Sequence numbers not to send");
   app.add_option("--garbage", o.garbage, "Undecodable messages to send before the maps");
+  app.add_flag("--tiles", o.tiles, "Each map as map_tile_t tiles on the channel + _TILES");
+  app.add_option("--cells", o.cells, "scene (tests/map_scenes.h) or random (tests/tiled_maps.h)")
+      ->check(CLI::IsMember({"scene", "random"}));
+  app.add_option("--drop-tile", o.drop_tiles, "SEQ:INDEX, a tile not to send (with --tiles)");
   app.add_flag("--zones-and-tracks", o.zones_and_tracks,
                "After each map, its zones_t and tracks_t (tests/footprint_scenes.h)");
   app.add_option("--answer-status", o.answer_status,

@@ -16,6 +16,8 @@
 #include "transport/footprints_message.h"
 #include "transport/footprints_publisher.h"
 #include "transport/map_codec.h"
+#include "transport/map_publisher.h"
+#include "transport/map_receiver.h"
 #include "transport/memory_bus.h"
 
 namespace occmap {
@@ -202,6 +204,55 @@ TEST(MergeNode, ZonesHaveAStateOnEveryMergedMap) {
   EXPECT_EQ(heard[1].zones[0].state, occmap::zone_t::OCCUPIED);
   EXPECT_EQ(heard[1].zones[0].occupied_cells, 1);
   EXPECT_EQ(heard[1].seq, 1);  // the merged map's own seq
+}
+
+// Large floors: camera PCs that send their maps in tiles and one that sends them whole, merged
+// into a map sent in tiles (transport/map_tiles.h); a lost tile is counted for its input and its
+// cells are unseen there.
+TEST(MergeNode, TiledInputsAndTiledOutput) {
+  MemoryNetwork network;
+  const MapGeometry g{0.0, 0.0, 0.05, 600, 300};  // 7 tiles of 240 x 240 a map
+  auto node_bus = network.connect();
+  MergeNode node(*node_bus, g, {{"west", "MAP_WEST"}, {"east", "MAP_EAST"}}, 0.150, "MERGED",
+                 MapEncoding::kZstd, {}, "merge", MapMessages::kTiles);
+  auto listener_bus = network.connect();
+  DecodedMap heard;
+  int maps_heard = 0;
+  MapReceiver listener(*listener_bus, "MERGED", [&](const DecodedMap& map, std::int64_t) {
+    heard = map;
+    ++maps_heard;
+  });
+  auto west_bus = network.connect();
+  auto east_bus = network.connect();
+  MapPublisher west(g, {"c0"}, MapEncoding::kZstd, "MAP_WEST", "test", MapMessages::kTiles);
+  MapPublisher east(g, {"c1"}, MapEncoding::kZstd, "MAP_EAST", "test", MapMessages::kWhole);
+  MapFrame west_map(g, 1), east_map(g, 1);
+  // West frees the left half, east the bottom rows; the rest is seen occupied by west.
+  for (int row = 0; row < g.height; ++row) {
+    for (int column = 0; column < g.width; ++column) {
+      west_map.map.cells[static_cast<std::size_t>(g.index(row, column))] = column < 300 ? F : O;
+      east_map.map.cells[static_cast<std::size_t>(g.index(row, column))] = row < 100 ? F : U;
+    }
+  }
+  for (int frame = 0; frame < 3; ++frame) {
+    west_map.utime = 1'000'000 + frame * 33'333;
+    east_map.utime = west_map.utime + 1'000;
+    ASSERT_TRUE(west.publish(*west_bus, west_map));
+    handleAll(node);
+    ASSERT_TRUE(east.publish(*east_bus, east_map));
+    handleAll(node);
+  }
+  while (listener_bus->handleTimeout(0) > 0) {
+  }
+  ASSERT_GE(maps_heard, 2);
+  EXPECT_EQ(listener.tilesOfMap().count, 6);  // 600 x 300 cells: 3 x 2 tiles of 240
+  EXPECT_EQ(listener.tilesOfMap().missing, 0);
+  ASSERT_EQ(heard.cells.size(), g.cellCount());
+  EXPECT_EQ(heard.cells[g.index(250, 10)], 0);   // west frees it
+  EXPECT_EQ(heard.cells[g.index(50, 500)], 0);   // east frees it
+  EXPECT_EQ(heard.cells[g.index(250, 500)], 1);  // seen by west, freed by none
+  EXPECT_EQ(node.inputs()[0].tiles_lost, 0u);
+  EXPECT_EQ(node.publishErrors(), 0u);
 }
 
 // The people: each PC's occmapd finds them with its own cameras and sends them with its maps; the

@@ -1,13 +1,16 @@
 // occmap status: ask the running occmapd how it is doing, over LCM.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
 #include <optional>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include <occmap/control_status_t.hpp>
 #include <occmap/lighting_status_t.hpp>
+#include <occmap/merge_status_t.hpp>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 #include <occmap/tracks_t.hpp>
@@ -21,6 +24,7 @@
 #include "transport/control_message.h"
 #include "transport/footprints_message.h"
 #include "transport/lcm_bus.h"
+#include "transport/merge_status_message.h"
 #include "transport/status_message.h"
 #include "transport/status_text.h"
 
@@ -35,6 +39,7 @@ struct StatusOptions {
   std::string map_channel = TransportSettings{}.map_channel;
   double timeout = 3;
   bool json = false;
+  bool all = false;
 };
 
 // A random, non-negative id (-1 marks the daemon's periodic status).
@@ -47,8 +52,8 @@ std::int64_t randomRequestId() {
 // A message occmapd publishes with each status_t (control_status_t, lighting_status_t,
 // view_status_t): the one
 // that goes with our answer has our request id and the answering daemon's hostname. It may come
-// before or after the status, so those with our id are kept (a few: several daemons may answer,
-// strangers may forge), each checked as carefully as the status (status_message.h).
+// before or after the status, so those with our id are kept (a few dozen: with --all every daemon
+// answers, and strangers may forge), each checked as carefully as the status (status_message.h).
 template <typename Message>
 class Companions {
  public:
@@ -75,7 +80,7 @@ class Companions {
   }
 
  private:
-  static constexpr std::size_t kMaxKept = 8;
+  static constexpr std::size_t kMaxKept = 64;
   std::string channel_;
   std::int64_t request_id_;
   Decode decode_;
@@ -83,8 +88,8 @@ class Companions {
 };
 
 // A message occmapd publishes beside its maps (zones_t, tracks_t: footprints_message.h), which
-// answers no request: the newest from each of a few hosts is kept (several daemons may share the
-// bus), so that the one from the daemon that answered can be shown.
+// answers no request: the newest from each of a few dozen hosts is kept (several daemons may share
+// the bus), so that the one from the daemon that answered can be shown.
 template <typename Message>
 class NewestByHost {
  public:
@@ -119,10 +124,77 @@ class NewestByHost {
     if (kept_.size() < kMaxHosts) kept_.push_back(std::move(message));
   }
 
-  static constexpr std::size_t kMaxHosts = 8;
+  static constexpr std::size_t kMaxHosts = 64;
   std::string channel_;
   Decode decode_;
   std::vector<Message> kept_;
+};
+
+// One daemon's answer: a camera PC's status_t or a merge node's merge_status_t.
+struct Answer {
+  std::optional<occmap::status_t> camera_pc;
+  std::optional<occmap::merge_status_t> merge_node;
+
+  const std::string& hostname() const {
+    return camera_pc ? camera_pc->hostname : merge_node->hostname;
+  }
+  const std::string& configFile() const {
+    return camera_pc ? camera_pc->config_file : merge_node->config_file;
+  }
+  bool sameDaemon(const Answer& other) const {
+    return hostname() == other.hostname() &&
+           merge_node.has_value() == other.merge_node.has_value() &&
+           configFile() == other.configFile();
+  }
+};
+
+// The answers to our request in the order they came, each daemon's once however often it
+// answered; at most kMaxDaemons, since anyone who saw the request's id can answer too. Without
+// --all the first is the one shown.
+class Answers {
+ public:
+  void take(Answer&& answer) {
+    for (const Answer& kept : answers_) {
+      if (kept.sameDaemon(answer)) return;
+    }
+    if (answers_.size() < kMaxDaemons) answers_.push_back(std::move(answer));
+  }
+  bool empty() const { return answers_.empty(); }
+  std::size_t size() const { return answers_.size(); }
+  const Answer& first() const { return answers_.front(); }
+  bool from(const std::string& hostname) const {
+    return std::any_of(answers_.begin(), answers_.end(),
+                       [&](const Answer& a) { return a.hostname() == hostname; });
+  }
+  std::vector<Answer> sorted() const {
+    std::vector<Answer> sorted = answers_;
+    std::stable_sort(sorted.begin(), sorted.end(), [](const Answer& a, const Answer& b) {
+      // has_value() orders a camera PC (no merge_status_t) before a merge node.
+      return std::forward_as_tuple(a.hostname(), a.merge_node.has_value(), a.configFile()) <
+             std::forward_as_tuple(b.hostname(), b.merge_node.has_value(), b.configFile());
+    });
+    return sorted;
+  }
+
+  static constexpr std::size_t kMaxDaemons = 64;
+
+ private:
+  std::vector<Answer> answers_;
+};
+
+// The hosts whose periodic status (request_id -1) was heard, each once, at most kMaxDaemons.
+class PeriodicHosts {
+ public:
+  void heard(const std::string& hostname) {
+    if (std::find(hosts_.begin(), hosts_.end(), hostname) == hosts_.end() &&
+        hosts_.size() < Answers::kMaxDaemons) {
+      hosts_.push_back(hostname);
+    }
+  }
+  const std::vector<std::string>& hosts() const { return hosts_; }
+
+ private:
+  std::vector<std::string> hosts_;
 };
 
 int run(const StatusOptions& o) {
@@ -135,25 +207,32 @@ int run(const StatusOptions& o) {
     return kExitFailure;
   }
   const std::int64_t request_id = randomRequestId();
-  std::optional<occmap::status_t> answer;
-  std::int64_t periodic = 0, others = 0, undecodable = 0;
-  std::string periodic_host;
+  Answers answers;
+  PeriodicHosts periodic;
+  std::int64_t others = 0, undecodable = 0;
+  // Checked before LCM's generated decoders see them (status_message.h, merge_status_message.h):
+  // anyone on the network segment can publish here.
+  const auto heard = [&](auto decoded, auto into) {
+    if (!decoded) {
+      ++undecodable;
+    } else if (decoded->request_id == request_id) {
+      Answer answer;
+      (answer.*into).emplace(std::move(*decoded));
+      answers.take(std::move(answer));
+    } else if (decoded->request_id == -1) {
+      periodic.heard(decoded->hostname);
+    } else {
+      ++others;  // an answer to someone else's request
+    }
+  };
   const bool subscribed =
       bus.subscribe(o.channel, [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
-        // Checked before LCM's generated decoder sees it (status_message.h): anyone on the
-        // network segment can publish here.
-        std::optional<occmap::status_t> status = decodeStatus(data, size);
-        if (!status) {
-          ++undecodable;
-        } else if (status->request_id == request_id) {
-          // The first answer is the one printed (another daemon on the channel may answer too).
-          if (!answer) answer = std::move(status);
-        } else if (status->request_id == -1) {
-          ++periodic;
-          periodic_host = terminalText(status->hostname);
-        } else {
-          ++others;  // an answer to someone else's request
-        }
+        heard(decodeStatus(data, size), &Answer::camera_pc);
+      });
+  const std::string merge_channel = mergeStatusChannel(o.channel);
+  const bool merge_subscribed =
+      bus.subscribe(merge_channel, [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+        heard(decodeMergeStatus(data, size), &Answer::merge_node);
       });
   Companions<occmap::control_status_t> controls(controlStatusChannel(o.channel), request_id,
                                                 decodeControlStatus);
@@ -164,6 +243,7 @@ int run(const StatusOptions& o) {
   NewestByHost<occmap::zones_t> zones(zonesChannel(o.map_channel), decodeZones);
   NewestByHost<occmap::tracks_t> tracks(tracksChannel(o.map_channel), decodeTracks);
   const std::string* unsubscribed = !subscribed                 ? &o.channel
+                                    : !merge_subscribed         ? &merge_channel
                                     : !controls.subscribe(bus)  ? &controls.channel()
                                     : !lightings.subscribe(bus) ? &lightings.channel()
                                     : !views.subscribe(bus)     ? &views.channel()
@@ -175,15 +255,15 @@ int run(const StatusOptions& o) {
                  unsubscribed->c_str(), o.lcm_url.c_str());
     return kExitFailure;
   }
-  const auto controlOfAnswer = [&] { return controls.of(answer->hostname); };
-  const auto lightingOfAnswer = [&] { return lightings.of(answer->hostname); };
-  const auto viewOfAnswer = [&] { return views.of(answer->hostname); };
-  const auto companionsHeard = [&] {
-    return controlOfAnswer() != nullptr && lightingOfAnswer() != nullptr &&
-           viewOfAnswer() != nullptr;
+  // A camera PC sends control, lighting and view statuses with its answer; a merge node none.
+  const auto companionsHeard = [&](const Answer& a) {
+    return a.merge_node ||
+           (controls.of(a.hostname()) != nullptr && lightings.of(a.hostname()) != nullptr &&
+            views.of(a.hostname()) != nullptr);
   };
-  const auto mapSideHeard = [&] {
-    return zones.of(answer->hostname) != nullptr && tracks.of(answer->hostname) != nullptr;
+  // A merge node sends zones and tracks beside its merged maps as a camera PC does.
+  const auto mapSideHeard = [&](const Answer& a) {
+    return zones.of(a.hostname()) != nullptr && tracks.of(a.hostname()) != nullptr;
   };
 
   const std::string request_channel = statusRequestChannel(o.channel);
@@ -207,15 +287,20 @@ int run(const StatusOptions& o) {
   std::optional<Clock::time_point> grace_end;
   while (true) {
     const auto now = Clock::now();
-    if (answer && !answered_at) answered_at = now;
-    if (answer) {
-      const bool companions = companionsHeard();
-      if (companions && mapSideHeard()) break;
+    // With --all every daemon that answers within --timeout is listed: there is no telling when
+    // the last one has, so the whole timeout is waited.
+    if (!o.all && !answers.empty()) {
+      if (!answered_at) answered_at = now;
+      const bool companions = companionsHeard(answers.first());
+      if (companions && mapSideHeard(answers.first())) break;
       grace_end = std::min(deadline, *answered_at + (companions ? Clock::duration(kMapSideGrace)
                                                                 : Clock::duration(kControlGrace)));
     }
     if (now >= (grace_end ? *grace_end : deadline)) break;
-    if (!answer && now >= next_request) {  // again every 0.5 s: a datagram may be lost
+    // Alone: again every 0.5 s until answered, a datagram may be lost. With --all one request,
+    // which every daemon answers once.
+    const bool request_due = o.all ? requests == 0 : answers.empty() && now >= next_request;
+    if (request_due) {
       occmap::status_request_t request{};
       request.utime = hostTimeMicroseconds();
       request.request_id = request_id;
@@ -229,7 +314,7 @@ int run(const StatusOptions& o) {
       ++requests;
       next_request += std::chrono::milliseconds(500);
     }
-    const auto until = grace_end ? *grace_end : std::min(next_request, deadline);
+    const auto until = grace_end ? *grace_end : o.all ? deadline : std::min(next_request, deadline);
     const auto wait = std::min(until - now, Clock::duration(std::chrono::milliseconds(50)));
     const int wait_ms =
         1 + static_cast<int>(std::chrono::duration_cast<std::chrono::milliseconds>(wait).count());
@@ -240,39 +325,68 @@ int run(const StatusOptions& o) {
     }
   }
   const double listened_s = std::chrono::duration<double>(Clock::now() - start).count();
-  if (!answer) {
+  if (answers.empty()) {
     std::fprintf(stderr,
                  "occmap status: no result: no occmapd answered within %g s (%d request%s on %s "
                  "at %s).",
                  o.timeout, requests, requests == 1 ? "" : "s", request_channel.c_str(),
                  o.lcm_url.c_str());
-    if (periodic > 0) {
+    if (!periodic.hosts().empty()) {
       std::fprintf(stderr,
                    " Its periodic status did arrive (from %s): it may be too busy to answer, or "
                    "an older version.\n",
-                   periodic_host.c_str());
+                   terminalText(periodic.hosts().front()).c_str());
     } else {
       std::fprintf(stderr,
                    " Is occmapd running, with the same transport.lcm_url and status_channel? "
                    "(ttl=0 reaches this host only.)\n");
     }
     if (undecodable > 0) {
-      std::fprintf(stderr, "occmap status: %lld undecodable message%s on %s\n",
+      std::fprintf(stderr, "occmap status: %lld undecodable message%s on %s or %s\n",
                    static_cast<long long>(undecodable), undecodable == 1 ? "" : "s",
-                   o.channel.c_str());
+                   o.channel.c_str(), merge_channel.c_str());
     }
     return kExitNoResult;
   }
-  // Without a control_status_t (a daemon from before control requests, or one lost on the way),
-  // the status alone, as such a daemon always gave it.
-  const occmap::control_status_t* control = controlOfAnswer();
-  const occmap::lighting_status_t* lighting = lightingOfAnswer();
-  const occmap::view_status_t* view = viewOfAnswer();
-  const ZonesAndTracks heard{zones.of(answer->hostname), tracks.of(answer->hostname), listened_s};
-  if (o.json) {
-    std::printf("%s\n", formatStatusJson(*answer, control, lighting, view, &heard).c_str());
-  } else {
-    std::printf("%s", formatStatusTable(*answer, control, lighting, view, &heard).c_str());
+  // Each daemon as it is shown alone. A camera PC without a control_status_t (a daemon from
+  // before control requests, or one lost on the way) is shown with the status alone, as such a
+  // daemon always gave it.
+  const auto show = [&](const Answer& a) {
+    const ZonesAndTracks heard_beside{zones.of(a.hostname()), tracks.of(a.hostname()), listened_s};
+    if (a.merge_node) {
+      return o.json ? formatMergeStatusJson(*a.merge_node, &heard_beside) + "\n"
+                    : formatMergeStatusTable(*a.merge_node, &heard_beside);
+    }
+    const occmap::control_status_t* control = controls.of(a.hostname());
+    const occmap::lighting_status_t* lighting = lightings.of(a.hostname());
+    const occmap::view_status_t* view = views.of(a.hostname());
+    return o.json ? formatStatusJson(*a.camera_pc, control, lighting, view, &heard_beside) + "\n"
+                  : formatStatusTable(*a.camera_pc, control, lighting, view, &heard_beside);
+  };
+  if (!o.all) {
+    std::printf("%s", show(answers.first()).c_str());
+    if (answers.size() > 1) {
+      const std::size_t more = answers.size() - 1;
+      std::fprintf(stderr,
+                   "occmap status: %zu more daemon%s answered on %s (the first is shown): "
+                   "--all lists them all\n",
+                   more, more == 1 ? "" : "s", request_channel.c_str());
+    }
+    return kExitOk;
+  }
+  const std::vector<Answer> sorted = answers.sorted();
+  for (std::size_t k = 0; k < sorted.size(); ++k) {
+    // Tables apart by a blank line; JSON one object a line.
+    std::printf("%s%s", k > 0 && !o.json ? "\n" : "", show(sorted[k]).c_str());
+  }
+  // A daemon whose periodic status came but which did not answer is worth a word.
+  for (const std::string& host : periodic.hosts()) {
+    if (!answers.from(host)) {
+      std::fprintf(stderr,
+                   "occmap status: %s publishes its status but did not answer within %g s: it may "
+                   "be too busy to answer, or an older version\n",
+                   terminalText(host).c_str(), o.timeout);
+    }
   }
   return kExitOk;
 }
@@ -298,12 +412,28 @@ Command addStatusCommand(CLI::App& app) {
       "long, and what is tracked (people and objects), where and how fast (or that none were "
       "heard: no zones in the "
       "config, footprints off); it waits for them at most 0.2 s after the answer, never past "
-      "--timeout.\n\n"
+      "--timeout.\n"
+      "A merge node (occmapd with `merge:` in its config, docs/merge.md) answers the same request "
+      "on the status channel's name + \"_MERGE\" and is shown the same way: its state, uptime, "
+      "merged maps published, publish errors, maps per second, the latency from the newest "
+      "input's arrival to the merged map's publish (p50, p99, last) and the time to take an "
+      "input map in, and a table of its inputs: channel, state (never heard, fresh, down), maps, "
+      "maps per second, how far behind the newest input, lost maps and clock offset, with a "
+      "warning for a clock more than 10 ms off and each input's refused messages and last error; "
+      "then its zones and tracks. Without --all the first daemon to answer is shown (stderr says "
+      "how many more answered).\n"
+      "--all sends one request and lists every daemon that answers within --timeout, camera PCs "
+      "and merge nodes, each as it is shown alone, sorted by host (tables a blank line apart; "
+      "with --json one object a line). It waits the whole --timeout (there is no telling when "
+      "the last daemon has answered): on a LAN --timeout 1 is plenty. A daemon whose periodic "
+      "status came but which did not answer is named on stderr.\n\n"
       "Examples:\n"
       "  occmap status\n"
+      "  occmap status --all --timeout 1\n"
       "  occmap status --lcm-url 'udpm://239.255.76.67:7667?ttl=1' --timeout 5 --json\n\n"
-      "Exit codes: 0 answered; 1 failed (LCM could not be opened or the request not sent); "
-      "2 bad arguments; 3 no occmapd answered within --timeout (the message says so on stderr).");
+      "Exit codes: 0 answered (with --all: at least one daemon); 1 failed (LCM could not be "
+      "opened or the request not sent); 2 bad arguments; 3 no occmapd answered within --timeout "
+      "(the message says so on stderr).");
   command
       ->add_option("--lcm-url", options->lcm_url, "LCM URL of the daemon (its transport.lcm_url)")
       ->capture_default_str();
@@ -317,14 +447,20 @@ Command addStatusCommand(CLI::App& app) {
                    "Map channel (transport.map_channel); zones are heard on its name + "
                    "\"_ZONES\", tracks on its name + \"_TRACKS\"")
       ->capture_default_str();
-  command->add_option("--timeout", options->timeout, "Seconds to wait for an answer")
+  command
+      ->add_option("--timeout", options->timeout,
+                   "Seconds to wait for an answer (with --all, waited in full)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   command->add_flag("--json", options->json,
                     "Print the answer as one JSON object on one line (every status_t field by its "
                     "LCM name, states also by name; then control_status_t's: control_*, camera_*; "
                     "then \"zones\", an array of zone_t, and \"tracks\", the tracks_t, each "
-                    "null when none was heard)");
+                    "null when none was heard). A merge node's: every merge_status_t field, "
+                    "\"inputs\" (where a camera PC has \"cameras\"), \"zones\", \"tracks\"");
+  command->add_flag("--all", options->all,
+                    "List every daemon (camera PCs and merge nodes) that answers one request "
+                    "within --timeout, sorted by host");
   return [options] { return run(*options); };
 }
 

@@ -1,5 +1,5 @@
-// occmap view: watch the maps occmapd broadcasts over LCM: rate, latency, losses, and the maps
-// themselves as a picture or a video, with the zones and tracks found on them.
+// occmap view: watch the maps occmapd broadcasts over LCM (whole or in tiles): rate, latency,
+// losses, and the maps themselves as a picture or a video, with the zones and tracks found on them.
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -27,6 +27,7 @@
 #include "transport/footprints_message.h"
 #include "transport/lcm_bus.h"
 #include "transport/map_codec.h"
+#include "transport/map_receiver.h"
 
 namespace occmap::tools {
 namespace {
@@ -107,14 +108,15 @@ class Viewer {
   const std::string& zonesChannelName() const { return zones_channel_; }
   const std::string& tracksChannelName() const { return tracks_channel_; }
 
-  void onMap(const std::uint8_t* data, std::size_t size, std::int64_t recv_utime) {
+  // A map from the MapReceiver, whole or put together from `tiles`.
+  void onMap(const DecodedMap& map, std::int64_t recv_utime, const MapTiles& tiles) {
     if (closing_) return;
-    const DecodedMap& map = decoder_.decode(data, size);
-    if (!map.ok()) {
-      refuse(++undecodable_, o_.channel, size, map.error);
-      return;
-    }
     ++received_;
+    if (tiles.missing > 0) {
+      ++incomplete_;
+      tiles_lost_ = saturatingAdd(tiles_lost_, static_cast<std::uint64_t>(tiles.missing));
+      interval_tiles_lost_ += tiles.missing;
+    }
     last_map_time_ = Clock::now();
     if (last_seq_) {
       // seq and utime come from the network and may be anything: the step is taken in unsigned
@@ -146,6 +148,12 @@ class Viewer {
       if (held_ && !o_.video.empty() && !video_failed_) writeVideoFrame(picture(*held_));
       held_ = HeldMap{map.toOccupancyMap(), map.seq, map.utime};
     }
+  }
+
+  // A map or tile message the MapReceiver refused.
+  void onRefusedMap(const std::string& channel, std::size_t size, const std::string& why) {
+    if (closing_) return;
+    refuse(++undecodable_, channel, size, why);
   }
 
   void onZones(const std::uint8_t* data, std::size_t size) {
@@ -180,15 +188,20 @@ class Viewer {
     } else {
       std::printf(
           "%5.0f s  %4lld maps/s  latency mean %6.1f ms, max %6.1f ms  occupied %5.2f %%  lost %lld"
-          "%s%s\n",
+          "%s%s%s\n",
           elapsed_s, static_cast<long long>(interval_latency_.maps), interval_latency_.mean(),
           interval_latency_.max_ms, 100.0 * interval_occupied_,
-          static_cast<long long>(interval_lost_), heard_.newestText().c_str(),
+          static_cast<long long>(interval_lost_),
+          interval_tiles_lost_ > 0
+              ? ("  tiles lost " + std::to_string(interval_tiles_lost_)).c_str()
+              : "",
+          heard_.newestText().c_str(),
           interval_undecodable_ > 0 ? "  (and undecodable messages)" : "");
     }
     std::fflush(stdout);
     interval_latency_ = {};
     interval_lost_ = 0;
+    interval_tiles_lost_ = 0;
     interval_undecodable_ = 0;
   }
 
@@ -198,11 +211,12 @@ class Viewer {
     if (writer_.isOpened()) writer_.release();
     std::printf(
         "summary: received %lld maps in %.2f s (%.1f maps/s), lost %lld (%lld seq gaps), "
-        "undecodable %lld",
+        "undecodable %lld, tiles lost %lld (%lld maps incomplete)",
         static_cast<long long>(received_), elapsed_s,
         elapsed_s > 0 ? static_cast<double>(received_) / elapsed_s : 0.0,
         static_cast<long long>(lost_), static_cast<long long>(gaps_),
-        static_cast<long long>(undecodable_));
+        static_cast<long long>(undecodable_), static_cast<long long>(tiles_lost_),
+        static_cast<long long>(incomplete_));
     if (total_latency_.maps > 0) {
       std::printf("; latency mean %.2f ms, max %.2f ms", total_latency_.mean(),
                   total_latency_.max_ms);
@@ -301,8 +315,9 @@ class Viewer {
 
   const ViewOptions& o_;
   const std::string zones_channel_, tracks_channel_;
-  MapDecoder decoder_;
   std::int64_t received_ = 0, lost_ = 0, gaps_ = 0, undecodable_ = 0;
+  std::int64_t tiles_lost_ = 0, incomplete_ = 0;  // tiled maps: tiles that never came, and maps
+  std::int64_t interval_tiles_lost_ = 0;
   std::optional<std::int64_t> last_seq_;
   Clock::time_point last_map_time_;
   Latency interval_latency_, total_latency_;
@@ -337,9 +352,21 @@ int run(const ViewOptions& o) {
     return kExitFailure;
   }
   Viewer viewer(o);
+  // Maps whole on the map channel or in tiles on its name + _TILES, whichever the daemon sends.
+  MapReceiver maps(
+      bus, o.channel,
+      [&viewer, &maps](const DecodedMap& map, std::int64_t recv_utime) {
+        viewer.onMap(map, recv_utime, maps.tilesOfMap());
+      },
+      [&viewer](const std::string& channel, std::size_t size, const std::string& why) {
+        viewer.onRefusedMap(channel, size, why);
+      });
+  if (!maps.subscribed()) {
+    std::fprintf(stderr, "occmap view: failed: cannot subscribe to %s and %s at %s\n",
+                 maps.mapChannel().c_str(), maps.tileChannel().c_str(), o.lcm_url.c_str());
+    return kExitFailure;
+  }
   const std::pair<const std::string&, Bus::Handler> channels[] = {
-      {o.channel, [&viewer](const std::uint8_t* data, std::size_t size,
-                            std::int64_t recv_utime) { viewer.onMap(data, size, recv_utime); }},
       {viewer.zonesChannelName(), [&viewer](const std::uint8_t* data, std::size_t size,
                                             std::int64_t) { viewer.onZones(data, size); }},
       {viewer.tracksChannelName(), [&viewer](const std::uint8_t* data, std::size_t size,
@@ -352,9 +379,9 @@ int run(const ViewOptions& o) {
       return kExitFailure;
     }
   }
-  std::printf("listening for maps on %s, zones on %s and tracks on %s at %s\n", o.channel.c_str(),
-              viewer.zonesChannelName().c_str(), viewer.tracksChannelName().c_str(),
-              o.lcm_url.c_str());
+  std::printf("listening for maps on %s (tiled on %s), zones on %s and tracks on %s at %s\n",
+              o.channel.c_str(), maps.tileChannel().c_str(), viewer.zonesChannelName().c_str(),
+              viewer.tracksChannelName().c_str(), o.lcm_url.c_str());
   std::fflush(stdout);
 
   const StopSignals signals;
@@ -391,6 +418,9 @@ int run(const ViewOptions& o) {
     }
   }
   const double elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
+  // A tiled map still waiting for tiles when the run ended otherwise than by --count: taken with
+  // them unseen (and counted).
+  if (!(o.count > 0 && viewer.received() >= o.count)) maps.flush();
   if (viewer.drawsPictures()) {
     // The last map's zones_t follows it on the wire and may not have been read when the run ends:
     // wait a moment for it (maps that come meanwhile are not taken), then take what else has come
@@ -414,12 +444,14 @@ Command addViewCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand(
       "view",
       "Watch the maps occmapd broadcasts over LCM.\n"
-      "Subscribes to the map channel (and to the zones and tracks found on the maps) and prints "
+      "Subscribes to the map channel (maps sent whole, and maps sent in tiles on its name + "
+      "_TILES: transport.tiles) and to the zones and tracks found on the maps, and prints "
       "one line per second: maps received, the latency from each map's time (the capture time of "
       "its newest camera frame) to its receipt here (mean and max; across machines this needs "
       "their clocks in step), the occupied share of the last map, and maps lost (gaps in the "
-      "maps' seq numbers). At the end it prints a "
-      "summary (maps received, lost, undecodable) and writes the last map as a picture "
+      "maps' seq numbers; and, for tiled maps, tiles lost). At the end it prints a "
+      "summary (maps received, lost, undecodable, tiles lost and the tiled maps they were missing "
+      "from, whose cells there show as unseen) and writes the last map as a picture "
       "(--png) and every map as a video (--video), drawn as floor plans: +y up, with a scale "
       "bar; white free, black occupied, blue-grey unseen.\n"
       "Over them it draws what occmapd finds on the maps, heard on the map channel's name + "
@@ -449,8 +481,8 @@ Command addViewCommand(CLI::App& app) {
       ->capture_default_str();
   command
       ->add_option("--channel", options->channel,
-                   "Map channel (transport.map_channel); zones and tracks are heard on its name + "
-                   "_ZONES and + _TRACKS")
+                   "Map channel (transport.map_channel); tiled maps, zones and tracks are heard on "
+                   "its name + _TILES, + _ZONES and + _TRACKS")
       ->capture_default_str();
   command->add_option("--count", options->count, "Stop after this many maps")
       ->check(CLI::PositiveNumber);

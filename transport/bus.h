@@ -13,6 +13,7 @@
 #include <functional>
 #include <span>
 #include <string>
+#include <utility>
 
 namespace occmap {
 
@@ -33,6 +34,15 @@ class Bus {
   virtual bool publish(const std::string& channel, std::span<const std::uint8_t> message) = 0;
   // Calls `handler` for every message on `channel`; handlers run inside handleTimeout().
   virtual bool subscribe(const std::string& channel, Handler handler) = 0;
+  // As subscribe(), for messages that come in bursts (a tiled map's tiles, back to back): up to
+  // `queue_depth` of them wait for handleTimeout() before any is dropped. LCM's default depth, 30,
+  // is fewer than one 2048 x 2048 map's 81 tiles, and LCM drops the rest without a word. A bus
+  // that keeps no such queue subscribes as subscribe() does.
+  virtual bool subscribeBursts(const std::string& channel, std::size_t queue_depth,
+                               Handler handler) {
+    (void)queue_depth;
+    return subscribe(channel, std::move(handler));
+  }
   // A file descriptor that becomes readable when a message is waiting (for poll()), or -1.
   virtual int fileno() = 0;
   // Waits up to `timeout_ms` for a message and dispatches it: > 0 handled, 0 timed out, < 0 error.

@@ -1,5 +1,6 @@
 #include "transport/lcm_bus.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include <lcm/lcm-cpp.hpp>
@@ -55,11 +56,20 @@ bool LcmBus::publish(const std::string& channel, std::span<const std::uint8_t> m
 }
 
 bool LcmBus::subscribe(const std::string& channel, Handler handler) {
+  return subscribeBursts(channel, 0, std::move(handler));
+}
+
+bool LcmBus::subscribeBursts(const std::string& channel, std::size_t queue_depth, Handler handler) {
   if (!lcm_->good()) return false;
   auto stored = std::make_unique<Handler>(std::move(handler));
   handlers_.reserve(handlers_.size() + 1);  // so that push_back cannot throw below
-  if (lcm_subscribe(lcm_->getUnderlyingLCM(), channel.c_str(), dispatch, stored.get()) == nullptr) {
-    return false;
+  lcm_subscription_t* subscription =
+      lcm_subscribe(lcm_->getUnderlyingLCM(), channel.c_str(), dispatch, stored.get());
+  if (subscription == nullptr) return false;
+  // 0: LCM's own depth (30 messages), which a program that keeps up never fills.
+  if (queue_depth > 0) {
+    lcm_subscription_set_queue_capacity(
+        subscription, static_cast<int>(std::min<std::size_t>(queue_depth, 1 << 20)));
   }
   handlers_.push_back(std::move(stored));
   return true;

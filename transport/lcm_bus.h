@@ -45,6 +45,8 @@ class LcmBus final : public Bus {
   // Calls `handler` for every message on `channel` (LCM matches it as a regular expression over
   // the whole channel name; a plain name matches itself). Handlers run inside handleTimeout().
   bool subscribe(const std::string& channel, Handler handler) override;
+  bool subscribeBursts(const std::string& channel, std::size_t queue_depth,
+                       Handler handler) override;
 
   // A file descriptor that becomes readable when a message is waiting (for poll()), or -1.
   int fileno() override;

@@ -146,6 +146,68 @@ std::string formatTracks(const occmap::tracks_t& t) {
   return text + formatText("; %zu footprint%s on %s\n", found, found == 1 ? "" : "s", map.c_str());
 }
 
+// How far an input's newest capture is behind the newest input's: "12 ms", "3.4 s"; "-" before
+// its first map (NaN) or for a figure that is no time.
+std::string behindText(double ms) {
+  if (!std::isfinite(ms) || std::fabs(ms) >= 1e12) return "-";
+  if (std::fabs(ms) < 1000.0) return formatText("%.0f ms", ms);
+  return formatText("%.1f s", ms / 1000.0);
+}
+
+// An input's clock offset: "+0.4 ms"; "?" until it is known (NaN).
+std::string clockOffsetText(double ms) {
+  if (!std::isfinite(ms) || std::fabs(ms) >= 1e12) return "?";
+  return formatText("%+.1f ms", ms);
+}
+
+// "zones" (an array of zone_t objects, or null when none was heard) and "tracks" (the tracks_t
+// as an object, or null) for formatStatusJson and formatMergeStatusJson.
+void addZonesAndTracksJson(nlohmann::ordered_json& j, const ZonesAndTracks& heard) {
+  nlohmann::ordered_json& zones = j["zones"] = nullptr;
+  if (heard.zones != nullptr) {
+    zones = nlohmann::ordered_json::array();
+    for (const occmap::zone_t& zone : heard.zones->zones) {
+      zones.push_back(nlohmann::ordered_json{
+          {"name", zone.name},
+          {"state", std::int64_t{zone.state}},
+          {"state_name", zoneStateText(zone.state)},
+          {"state_s", zone.state_s},
+          {"cells", zone.cells},
+          {"occupied_cells", zone.occupied_cells},
+          {"unseen_cells", zone.unseen_cells},
+          {"corner_x_m", zone.corner_x_m},
+          {"corner_y_m", zone.corner_y_m},
+      });
+    }
+  }
+  nlohmann::ordered_json& tracks = j["tracks"] = nullptr;
+  if (heard.tracks != nullptr) {
+    const occmap::tracks_t& t = *heard.tracks;
+    tracks = {{"utime", t.utime}, {"seq", t.seq}, {"hostname", t.hostname}};
+    nlohmann::ordered_json& found = tracks["footprints"] = nlohmann::ordered_json::array();
+    for (const occmap::footprint_t& f : t.footprints) {
+      found.push_back(nlohmann::ordered_json{{"x_m", f.x_m},
+                                             {"y_m", f.y_m},
+                                             {"area_m2", f.area_m2},
+                                             {"score", f.score},
+                                             {"height_m", f.height_m}});
+    }
+    nlohmann::ordered_json& followed = tracks["tracks"] = nlohmann::ordered_json::array();
+    for (const occmap::track_t& track : t.tracks) {
+      followed.push_back(nlohmann::ordered_json{
+          {"id", track.id},
+          {"x_m", track.x_m},
+          {"y_m", track.y_m},
+          {"vx_m_s", track.vx_m_s},
+          {"vy_m_s", track.vy_m_s},
+          {"area_m2", track.area_m2},
+          {"age_s", track.age_s},
+          {"unseen_s", track.unseen_s},
+      });
+    }
+  }
+}
+
 }  // namespace
 
 std::string zoneStateText(int state) {
@@ -423,55 +485,152 @@ std::string formatStatusJson(const occmap::status_t& s, const occmap::control_st
     j["view_reposed_turn_deg"] = v.reposed_turn_deg;
     j["view_reposed_utime"] = v.reposed_utime;
   }
-  if (heard != nullptr) {
-    nlohmann::ordered_json& zones = j["zones"] = nullptr;
-    if (heard->zones != nullptr) {
-      zones = nlohmann::ordered_json::array();
-      for (const occmap::zone_t& zone : heard->zones->zones) {
-        zones.push_back(nlohmann::ordered_json{
-            {"name", zone.name},
-            {"state", std::int64_t{zone.state}},
-            {"state_name", zoneStateText(zone.state)},
-            {"state_s", zone.state_s},
-            {"cells", zone.cells},
-            {"occupied_cells", zone.occupied_cells},
-            {"unseen_cells", zone.unseen_cells},
-            {"corner_x_m", zone.corner_x_m},
-            {"corner_y_m", zone.corner_y_m},
-        });
-      }
-    }
-    nlohmann::ordered_json& tracks = j["tracks"] = nullptr;
-    if (heard->tracks != nullptr) {
-      const occmap::tracks_t& t = *heard->tracks;
-      tracks = {{"utime", t.utime}, {"seq", t.seq}, {"hostname", t.hostname}};
-      nlohmann::ordered_json& found = tracks["footprints"] = nlohmann::ordered_json::array();
-      for (const occmap::footprint_t& f : t.footprints) {
-        found.push_back(nlohmann::ordered_json{{"x_m", f.x_m},
-                                               {"y_m", f.y_m},
-                                               {"area_m2", f.area_m2},
-                                               {"score", f.score},
-                                               {"height_m", f.height_m}});
-      }
-      nlohmann::ordered_json& followed = tracks["tracks"] = nlohmann::ordered_json::array();
-      for (const occmap::track_t& track : t.tracks) {
-        followed.push_back(nlohmann::ordered_json{
-            {"id", track.id},
-            {"x_m", track.x_m},
-            {"y_m", track.y_m},
-            {"vx_m_s", track.vx_m_s},
-            {"vy_m_s", track.vy_m_s},
-            {"area_m2", track.area_m2},
-            {"age_s", track.age_s},
-            {"unseen_s", track.unseen_s},
-        });
-      }
-    }
-  }
+  if (heard != nullptr) addZonesAndTracksJson(j, *heard);
   // The texts are anyone's on the network: bytes that are not UTF-8 become U+FFFD (rather than an
   // exception), and ensure_ascii writes every character outside printable ASCII as \uXXXX, so that
   // no control character (C0, DEL, C1) reaches a terminal raw when the JSON is printed on one.
   // Non-finite numbers come out as null.
+  return j.dump(-1, ' ', true, nlohmann::ordered_json::error_handler_t::replace);
+}
+
+std::string mergeInputStateName(int state) {
+  switch (state) {
+    case occmap::merge_input_status_t::STATE_NEVER_HEARD:
+      return "never heard";
+    case occmap::merge_input_status_t::STATE_FRESH:
+      return "fresh";
+    case occmap::merge_input_status_t::STATE_DOWN:
+      return "down";
+    default:
+      return formatText("state %d", state);
+  }
+}
+
+std::string formatMergeStatusTable(const occmap::merge_status_t& s, const ZonesAndTracks* heard) {
+  std::string text =
+      "occmapd merge node on " + (s.hostname.empty() ? std::string("?") : terminalText(s.hostname));
+  if (!s.config_file.empty()) text += " (config " + terminalText(s.config_file) + ")";
+  text += "\n";
+  text += formatText("  state %s, up %s\n", daemonStateName(s.state).c_str(),
+                     uptime(s.uptime_s).c_str());
+  text += formatText(
+      "  merged maps published %" PRId64 " (%.1f maps/s) on %s, publish errors %" PRId64 "\n",
+      s.maps_published, s.maps_per_s, terminalText(s.map_channel).c_str(), s.publish_errors);
+  const auto fresh = std::count_if(s.inputs.begin(), s.inputs.end(), [](const auto& input) {
+    return input.state == occmap::merge_input_status_t::STATE_FRESH;
+  });
+  text += formatText("  inputs fresh: %td of %zu (within %.0f ms of the newest input's capture)\n",
+                     fresh, s.inputs.size(), s.max_age_ms);
+  text += formatText(
+      "  latency from the newest input's arrival to publish: p50 %.2f ms, p99 %.2f ms, last "
+      "%.2f ms\n",
+      s.latency_p50_ms, s.latency_p99_ms, s.latency_last_ms);
+  text += formatText("  merge per input map: p50 %.2f ms, p99 %.2f ms\n", s.merge_p50_ms,
+                     s.merge_p99_ms);
+
+  std::vector<std::string> names, channels;
+  for (const auto& input : s.inputs) {
+    names.push_back(terminalText(input.name));
+    channels.push_back(terminalText(input.channel));
+  }
+  // Names and channels are at most 64 characters wide in the table; a longer one runs past.
+  std::size_t name_width = 5, channel_width = 7;
+  for (const std::string& name : names) name_width = std::max(name_width, name.size());
+  for (const std::string& channel : channels)
+    channel_width = std::max(channel_width, channel.size());
+  const int w = static_cast<int>(std::min<std::size_t>(name_width, 64));
+  const int cw = static_cast<int>(std::min<std::size_t>(channel_width, 64));
+  text += formatText("\n%-*s  %-*s  %-11s  %8s  %6s  %8s  %6s  %9s\n", w, "input", cw, "channel",
+                     "state", "maps", "maps/s", "behind", "lost", "clock");
+  for (std::size_t k = 0; k < s.inputs.size(); ++k) {
+    const auto& input = s.inputs[k];
+    text += formatText("%-*s  %-*s  %-11s  %8" PRId64 "  %6.1f  %8s  %6" PRId64 "  %9s\n", w,
+                       names[k].c_str(), cw, channels[k].c_str(),
+                       mergeInputStateName(input.state).c_str(), input.maps, input.maps_per_s,
+                       behindText(input.age_ms).c_str(), input.lost_maps,
+                       clockOffsetText(input.clock_offset_ms).c_str());
+  }
+  if (s.inputs.empty()) text += "(no inputs)\n";
+  for (std::size_t k = 0; k < s.inputs.size(); ++k) {
+    const auto& input = s.inputs[k];
+    if (std::isfinite(input.clock_offset_ms) && s.clock_warning_ms > 0 &&
+        std::fabs(input.clock_offset_ms) > s.clock_warning_ms) {
+      text += formatText(
+          "%s: CLOCK %.1f ms off the others' (more than %.0f ms): its maps are judged that much "
+          "too old or too new, and its cells shown at another moment than theirs (docs/merge.md: "
+          "chrony or PTP)\n",
+          names[k].c_str(), input.clock_offset_ms, s.clock_warning_ms);
+    }
+    if (input.tiles_lost != 0) {
+      text +=
+          formatText("%s: %" PRId64 " tile%s of its maps lost on the way (their cells unseen)\n",
+                     names[k].c_str(), input.tiles_lost, input.tiles_lost == 1 ? "" : "s");
+    }
+    if (input.refused != 0 || !input.last_error.empty()) {
+      text += formatText("%s: %" PRId64 " message%s refused", names[k].c_str(), input.refused,
+                         input.refused == 1 ? "" : "s");
+      if (!input.last_error.empty()) text += ", last error: " + terminalText(input.last_error);
+      text += "\n";
+    }
+  }
+  if (heard != nullptr) {
+    // As a camera PC's, but for why tracks may not come: a merge node tracks the people its
+    // inputs found (docs/merge.md), and sends tracks_t when they send theirs.
+    text += "\n";
+    text += heard->zones != nullptr
+                ? formatZones(*heard->zones)
+                : formatText("no zones_t heard in %.1f s (are there zones: in the config?)\n",
+                             heard->listened_s);
+    text += heard->tracks != nullptr
+                ? formatTracks(*heard->tracks)
+                : formatText(
+                      "no tracks_t heard in %.1f s (do the camera PCs send theirs? "
+                      "footprints: enabled: false there?)\n",
+                      heard->listened_s);
+  }
+  return text;
+}
+
+std::string formatMergeStatusJson(const occmap::merge_status_t& s, const ZonesAndTracks* heard) {
+  nlohmann::ordered_json j = {
+      {"utime", s.utime},
+      {"request_id", s.request_id},
+      {"hostname", s.hostname},
+      {"config_file", s.config_file},
+      {"map_channel", s.map_channel},
+      {"state", std::int64_t{s.state}},
+      {"state_name", daemonStateName(s.state)},
+      {"uptime_s", s.uptime_s},
+      {"maps_published", s.maps_published},
+      {"publish_errors", s.publish_errors},
+      {"maps_per_s", s.maps_per_s},
+      {"max_age_ms", s.max_age_ms},
+      {"latency_p50_ms", s.latency_p50_ms},
+      {"latency_p99_ms", s.latency_p99_ms},
+      {"latency_last_ms", s.latency_last_ms},
+      {"merge_p50_ms", s.merge_p50_ms},
+      {"merge_p99_ms", s.merge_p99_ms},
+      {"clock_warning_ms", s.clock_warning_ms},
+  };
+  nlohmann::ordered_json& inputs = j["inputs"] = nlohmann::ordered_json::array();
+  for (const auto& input : s.inputs) {
+    inputs.push_back(nlohmann::ordered_json{
+        {"name", input.name},
+        {"channel", input.channel},
+        {"state", std::int64_t{input.state}},
+        {"state_name", mergeInputStateName(input.state)},
+        {"maps", input.maps},
+        {"maps_per_s", input.maps_per_s},
+        {"age_ms", input.age_ms},
+        {"lost_maps", input.lost_maps},
+        {"tiles_lost", input.tiles_lost},
+        {"refused", input.refused},
+        {"clock_offset_ms", input.clock_offset_ms},
+        {"last_error", input.last_error},
+    });
+  }
+  if (heard != nullptr) addZonesAndTracksJson(j, *heard);
+  // As formatStatusJson: ASCII only, bytes that are not UTF-8 as U+FFFD, NaN as null.
   return j.dump(-1, ' ', true, nlohmann::ordered_json::error_handler_t::replace);
 }
 

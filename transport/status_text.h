@@ -11,6 +11,7 @@
 
 #include <occmap/control_status_t.hpp>
 #include <occmap/lighting_status_t.hpp>
+#include <occmap/merge_status_t.hpp>
 #include <occmap/status_t.hpp>
 #include <occmap/tracks_t.hpp>
 #include <occmap/view_status_t.hpp>
@@ -80,6 +81,32 @@ std::string formatStatusJson(const occmap::status_t& status,
                              const occmap::lighting_status_t* lighting = nullptr,
                              const occmap::view_status_t* view = nullptr,
                              const ZonesAndTracks* heard = nullptr);
+
+// A merge node's status (merge_status_t, docs/merge.md) as `occmap status` shows it, the way
+// formatStatusTable shows a camera PC's: a few lines on the node (state, uptime, merged maps
+// published and on which channel, publish errors, maps/s, how many inputs are fresh within
+// max_age_ms, the latency from the newest input's arrival to the merged map's publish as p50, p99
+// and last, the time to take one input map in as p50 and p99), then a table with one row per
+// input: name, channel, state, maps heard, maps/s, how far its newest capture is behind the newest
+// input's, lost maps and its clock offset ("?" until known). Below it, for each input whose clock
+// is more than clock_warning_ms off, a warning line; for each that refused messages, how many and
+// its last error. With `heard`, a blank line and the zones and tracks as formatZonesAndTracks
+// (the tracks on the merged map, made of what the camera PCs found: docs/merge.md), or that none
+// were heard. Ends with a newline.
+std::string formatMergeStatusTable(const occmap::merge_status_t& status,
+                                   const ZonesAndTracks* heard = nullptr);
+
+// One JSON object on one line, as formatStatusJson: every field of merge_status_t by its LCM name
+// in its order, the state also by name ("state_name"), "inputs" an array of objects with every
+// field of merge_input_status_t (and "state_name": "never heard", "fresh", "down"); numbers that
+// are not finite (an input's age_ms and clock_offset_ms before they are known) as null. With
+// `heard`, "zones" and "tracks" as formatStatusJson has them. A reader tells it from a camera PC's
+// by "inputs" where that has "cameras".
+std::string formatMergeStatusJson(const occmap::merge_status_t& status,
+                                  const ZonesAndTracks* heard = nullptr);
+
+// "never heard", "fresh", "down" (merge_input_status_t.STATE_*); "state N" otherwise.
+std::string mergeInputStateName(int state);
 
 // "as calibrated", "unexplained", "moved" (view_status_t); "view N" otherwise.
 std::string viewName(int view);

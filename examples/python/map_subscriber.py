@@ -2,12 +2,14 @@
 """Print every occupancy map occmapd broadcasts: seq, size, occupied/free/unseen shares, cameras;
 and, about once a second, its zones' states and the people it tracks.
 
-A starting point for programs that use occmap's maps, zones and tracks. Besides each map
-(map_frame_t, on the map channel), occmapd publishes the zones' states (zones_t, on the map
-channel's name + "_ZONES", right after each map) and the people and objects it finds and follows
-(tracks_t, on its name + "_TRACKS", whenever its detector is done with a map). It needs the Python
-classes that `lcm-gen -p` makes from lcmtypes/*.lcm (the build puts them in
-build/lcmtypes/python): give that folder with --types, or put it on PYTHONPATH.
+A starting point for programs that use occmap's maps, zones and tracks. occmapd publishes each map
+whole (map_frame_t, on the map channel) or, with `transport: {tiles: true}`, in tiles (map_tile_t,
+on the map channel's name + "_TILES": maps larger than one datagram, where a lost datagram loses
+one tile and its cells are shown unseen); this script reads both. Besides the maps it publishes
+the zones' states (zones_t, on the map channel's name + "_ZONES", right after each map) and the
+people and objects it finds and follows (tracks_t, on its name + "_TRACKS", whenever its detector
+is done with a map). It needs the Python classes that `lcm-gen -p` makes from lcmtypes/*.lcm (the
+build puts them in build/lcmtypes/python): give that folder with --types, or put it on PYTHONPATH.
 
 Where the maps come from:
   * the network (LCM's UDP multicast, the URL occmapd publishes to). With LCM's own Python module
@@ -37,6 +39,7 @@ from io import BytesIO
 DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"
 ZONE_STATES = ("free", "occupied", "unseen")  # zone_t.FREE, OCCUPIED, UNSEEN
 MAX_SIDE = 8192  # the largest map side occmap's decoders accept
+MIN_TILE_SIDE, MAX_TILE_SIDE = 16, 247  # the tile sides occmap's decoders accept (map_tile_t)
 FREE, OCCUPIED, UNSEEN = 0, 1, 2
 ENCODING_RAW, ENCODING_ZSTD = 0, 1
 
@@ -57,7 +60,8 @@ def parse_arguments():
                         help="LCM URL to listen on (default: $LCM_DEFAULT_URL, else %(default)s)")
     parser.add_argument("--channel", default="OCCMAP_MAP",
                         help="map channel, a regular expression as in LCM (default %(default)s); "
-                        "zones are read on its name + _ZONES, tracks on its name + _TRACKS")
+                        "tiled maps are read on its name + _TILES, zones on its name + _ZONES, "
+                        "tracks on its name + _TRACKS")
     parser.add_argument("--log", metavar="FILE", help="read this lcm-logger log instead")
     parser.add_argument("--count", type=int, default=0, help="stop after this many maps")
     parser.add_argument("--timeout", type=float, default=0,
@@ -76,7 +80,8 @@ def parse_arguments():
 
 
 def import_types(types_folder):
-    """map_frame_t, zones_t and tracks_t (None for those the types folder does not have)."""
+    """map_frame_t, zones_t, tracks_t and map_tile_t (None for those the types folder does not
+    have)."""
     if types_folder:
         if not os.path.isdir(os.path.join(types_folder, "occmap")):
             print("map_subscriber: --types %s: no occmap/ package there (it is what "
@@ -91,12 +96,18 @@ def import_types(types_folder):
               "build/lcmtypes/python or put that folder on PYTHONPATH" % error, file=sys.stderr)
         sys.exit(2)
     try:
+        from occmap import map_tile_t
+    except ImportError:
+        print("map_subscriber: these types have no occmap.map_tile_t (made before it): tiled "
+              "maps are not shown", file=sys.stderr)
+        map_tile_t = None
+    try:
         from occmap import tracks_t, zones_t
     except ImportError:
         print("map_subscriber: these types have no occmap.zones_t and tracks_t (made before "
               "them): zones and tracks are not shown", file=sys.stderr)
-        return map_frame_t, None, None
-    return map_frame_t, zones_t, tracks_t
+        return map_frame_t, None, None, map_tile_t
+    return map_frame_t, zones_t, tracks_t, map_tile_t
 
 
 def printable(text):
@@ -140,6 +151,56 @@ def zstd_decompressor():
         return None
 
 
+def cells_of(encoding, data, cells, decompress):
+    """The `cells` cell values that map_frame_t or map_tile_t `data` holds in `encoding`, checked
+    (ValueError says what is wrong)."""
+    if encoding == ENCODING_RAW:
+        grid = bytes(data)
+    elif encoding == ENCODING_ZSTD:
+        if decompress is None:
+            raise ValueError("zstd data, and neither the zstandard nor the zstd module is "
+                             "installed (Debian: apt install python3-zstandard)")
+        data = bytes(data)
+        declared = zstd_content_size(data)
+        if declared != cells:
+            raise ValueError("the zstd frame declares %s bytes, it should hold %d cells" %
+                             ("no size" if declared is None else declared, cells))
+        try:
+            grid = decompress(data)
+        except Exception as error:  # each zstd module has its own error type
+            raise ValueError("zstd: %s" % error)
+    else:
+        raise ValueError("unknown encoding %d" % encoding)
+    if len(grid) != cells:
+        raise ValueError("%d bytes of cells where %d are due" % (len(grid), cells))
+    if sum(grid.count(bytes([value])) for value in (FREE, OCCUPIED, UNSEEN)) != cells:
+        raise ValueError("cell values other than 0 free, 1 occupied, 2 unseen")
+    return grid
+
+
+def map_dict(message, grid, encoding, size, tiles=0, tiles_missing=0):
+    """A map as this script shows it: the header fields of `message` (a map_frame_t or a tile of
+    the map), its cells `grid` and their shares."""
+    cells = message.width * message.height
+    counts = [grid.count(bytes([value])) for value in (FREE, OCCUPIED, UNSEEN)]
+    return {
+        "seq": message.seq,
+        "utime": message.utime,
+        "width": message.width,
+        "height": message.height,
+        "encoding": "raw" if encoding == ENCODING_RAW else "zstd",
+        "bytes": size,
+        "tiles": tiles,  # 0 for a map sent whole
+        "tiles_missing": tiles_missing,  # tiles that never came: their cells are unseen
+        "free": counts[FREE] / cells,
+        "occupied": counts[OCCUPIED] / cells,
+        "unseen": counts[UNSEEN] / cells,
+        "cameras": [camera.name for camera in message.cameras],
+        "used": [camera.name for camera in message.cameras if camera.used],
+        "cells": grid,  # row-major, row 0 = smallest y; grid[r * width + c]
+    }
+
+
 class MapDecoder:
     """map_frame_t bytes -> a dict, checking every size; ValueError says what is wrong."""
 
@@ -158,43 +219,116 @@ class MapDecoder:
         width, height = message.width, message.height
         if not (1 <= width <= MAX_SIDE and 1 <= height <= MAX_SIDE):
             raise ValueError("a map of %d x %d cells" % (width, height))
-        cells = width * height
-        if message.encoding == ENCODING_RAW:
-            grid = bytes(message.data)
-        elif message.encoding == ENCODING_ZSTD:
-            if self.decompress is None:
-                raise ValueError("a zstd map, and neither the zstandard nor the zstd module is "
-                                 "installed (Debian: apt install python3-zstandard)")
-            data = bytes(message.data)
-            declared = zstd_content_size(data)
-            if declared != cells:
-                raise ValueError("the zstd frame declares %s bytes, width * height is %d" %
-                                 ("no size" if declared is None else declared, cells))
-            try:
-                grid = self.decompress(data)
-            except Exception as error:  # each zstd module has its own error type
-                raise ValueError("zstd: %s" % error)
+        grid = cells_of(message.encoding, message.data, width * height, self.decompress)
+        return map_dict(message, grid, message.encoding, len(data))
+
+
+class TileAssembler:
+    """map_tile_t bytes -> whole maps, put together as occmap's own MapTileAssembler does.
+
+    A map sent in tiles (occmapd with `transport: {tiles: true}`) comes as map_tile_t messages on
+    the map channel's name + "_TILES": the map cut into a grid of tile_side x tile_side tiles,
+    numbered row by row, each with the map's header and camera list. take() checks a tile
+    (ValueError says what is wrong) and returns the maps it ends, as MapDecoder's dicts: a map is
+    given out when all its tiles have come, or when a tile of a newer map comes first; then the
+    cells of its missing tiles are unseen (no one vouches for them) and "tiles_missing" says how
+    many. Copies of a tile, and tiles of a map already given out or older, are left out."""
+
+    def __init__(self, map_tile_t):
+        self.map_tile_t = map_tile_t
+        self.decompress = zstd_decompressor()
+        self.current = None  # the map in progress
+        self.given = None  # (seq, utime) of the map last given out
+        self.tiles_lost = 0
+        self.stale = 0
+
+    def _decode(self, data):
+        """A checked tile: (message, its cells)."""
+        buffer = BytesIO(data)
+        try:
+            m = self.map_tile_t.decode(buffer)
+        except (ValueError, struct.error) as error:
+            raise ValueError("not a map_tile_t, or truncated (%s)" % error)
+        if buffer.tell() != len(data) or len(m.data) != m.data_size or m.num_cameras < 0:
+            raise ValueError("its sizes do not add up to the %d bytes received" % len(data))
+        if m.encode() != data:
+            raise ValueError("encoded again it is not the bytes received")
+        width, height, side = m.width, m.height, m.tile_side
+        if not (1 <= width <= MAX_SIDE and 1 <= height <= MAX_SIDE):
+            raise ValueError("a map of %d x %d cells" % (width, height))
+        if not (math.isfinite(m.cell_size_m) and m.cell_size_m > 0 and
+                math.isfinite(m.origin_x_m) and math.isfinite(m.origin_y_m)):
+            raise ValueError("a cell size or origin that is not a finite number")
+        if not MIN_TILE_SIDE <= side <= MAX_TILE_SIDE:
+            raise ValueError("tile_side %d is outside %d..%d" % (side, MIN_TILE_SIDE,
+                                                                 MAX_TILE_SIDE))
+        columns, rows = -(-width // side), -(-height // side)
+        if m.tile_count != columns * rows:
+            raise ValueError("tile_count %d is not the %d tiles of a %d x %d map in tiles of %d" %
+                             (m.tile_count, columns * rows, width, height, side))
+        if not 0 <= m.tile_index < m.tile_count:
+            raise ValueError("tile_index %d is outside 0..%d" % (m.tile_index, m.tile_count - 1))
+        column, row = m.tile_index % columns * side, m.tile_index // columns * side
+        place = (column, row, min(side, width - column), min(side, height - row))
+        if (m.first_column, m.first_row, m.tile_width, m.tile_height) != place:
+            raise ValueError("tile %d is not where its index puts it in the grid" % m.tile_index)
+        return m, cells_of(m.encoding, m.data, m.tile_width * m.tile_height, self.decompress)
+
+    @staticmethod
+    def _cameras(m):
+        return [(c.name, c.state, c.used, c.sequence, c.capture_utime) for c in m.cameras]
+
+    def take(self, data):
+        m, grid = self._decode(data)
+        key = (m.seq, m.utime)
+        given = []
+        current = self.current
+        if current is not None and key == current["key"]:
+            first = current["first"]
+            if (m.width, m.height, m.cell_size_m, m.origin_x_m, m.origin_y_m, m.tile_side) != (
+                    first.width, first.height, first.cell_size_m, first.origin_x_m,
+                    first.origin_y_m, first.tile_side):
+                raise ValueError("tile %d of map seq %d gives the map another geometry than its "
+                                 "tiles before" % (m.tile_index, m.seq))
+            if self._cameras(m) != current["cameras"]:
+                raise ValueError("tile %d of map seq %d gives the map another camera list than "
+                                 "its tiles before" % (m.tile_index, m.seq))
+            if m.tile_index in current["received"]:
+                self.stale += 1
+                return given
         else:
-            raise ValueError("unknown encoding %d" % message.encoding)
-        if len(grid) != cells:
-            raise ValueError("%d bytes of cells for a %d x %d map" % (len(grid), width, height))
-        counts = [grid.count(bytes([value])) for value in (FREE, OCCUPIED, UNSEEN)]
-        if sum(counts) != cells:
-            raise ValueError("cell values other than 0 free, 1 occupied, 2 unseen")
-        return {
-            "seq": message.seq,
-            "utime": message.utime,
-            "width": width,
-            "height": height,
-            "encoding": "raw" if message.encoding == ENCODING_RAW else "zstd",
-            "bytes": len(data),
-            "free": counts[FREE] / cells,
-            "occupied": counts[OCCUPIED] / cells,
-            "unseen": counts[UNSEEN] / cells,
-            "cameras": [camera.name for camera in message.cameras],
-            "used": [camera.name for camera in message.cameras if camera.used],
-            "cells": grid,  # row-major, row 0 = smallest y; grid[r * width + c]
-        }
+            reference = current["key"] if current is not None else self.given
+            if reference is not None and m.seq <= reference[0] and m.utime <= reference[1]:
+                self.stale += 1  # late: its map was given out, or a newer one has begun
+                return given
+            given += self.flush()
+            current = self.current = {
+                "key": key, "first": m, "cameras": self._cameras(m), "received": set(),
+                "cells": bytearray([UNSEEN]) * (m.width * m.height), "bytes": 0,
+                "encoding": ENCODING_RAW}
+        cells = current["cells"]
+        for r in range(m.tile_height):
+            start = (m.first_row + r) * m.width + m.first_column
+            cells[start:start + m.tile_width] = grid[r * m.tile_width:(r + 1) * m.tile_width]
+        current["received"].add(m.tile_index)
+        current["bytes"] += len(data)
+        if m.encoding == ENCODING_ZSTD:
+            current["encoding"] = ENCODING_ZSTD
+        if len(current["received"]) == m.tile_count:
+            given += self.flush()
+        return given
+
+    def flush(self):
+        """The map in progress, given out now with its missing tiles unseen ([] if none)."""
+        current, self.current = self.current, None
+        if current is None:
+            return []
+        self.given = current["key"]
+        first = current["first"]
+        missing = first.tile_count - len(current["received"])
+        self.tiles_lost += missing
+        return [map_dict(first, bytes(current["cells"]), current["encoding"], current["bytes"],
+                         first.tile_count, missing)]
 
 
 def decode_whole(message_type, data):
@@ -447,15 +581,17 @@ def _lcm_module_messages(lcm, url, channels, map_channel, timeout):
 
 def main():
     arguments = parse_arguments()
-    map_frame_t, zones_t, tracks_t = import_types(arguments.types)
+    map_frame_t, zones_t, tracks_t, map_tile_t = import_types(arguments.types)
     decoder = MapDecoder(map_frame_t)
+    assembler = TileAssembler(map_tile_t) if map_tile_t is not None else None
     maps = undecodable = other = lost = zones_heard = tracks_heard = 0
     last_seq = None
-    # The map channel, and the zones' and tracks' channels named after it (checked first: a map
-    # channel pattern such as OCCMAP_.* matches them too).
+    # The map channel, and the tiles', zones' and tracks' channels named after it (checked first:
+    # a map channel pattern such as OCCMAP_.* matches them too).
     map_pattern = re.compile(arguments.channel)
-    zones_channel, tracks_channel = ("(%s)_%s" % (arguments.channel, suffix)
-                                     for suffix in ("ZONES", "TRACKS"))
+    tiles_channel, zones_channel, tracks_channel = ("(%s)_%s" % (arguments.channel, suffix)
+                                                   for suffix in ("TILES", "ZONES", "TRACKS"))
+    tiles_pattern = re.compile(tiles_channel)
     zones_pattern, tracks_pattern = re.compile(zones_channel), re.compile(tracks_channel)
     zones_every, tracks_every = Every(arguments.every), Every(arguments.every)
 
@@ -486,30 +622,54 @@ def main():
                 print(tracks_line(message), flush=True)
         return True
 
+    def print_map(frame):
+        nonlocal maps, lost, last_seq
+        maps += 1
+        if last_seq is not None and frame["seq"] > last_seq + 1:
+            lost += frame["seq"] - last_seq - 1
+        last_seq = frame["seq"]
+        how = frame["encoding"]
+        if frame["tiles"]:
+            how += " in %d tiles (%d lost)" % (frame["tiles"], frame["tiles_missing"])
+        print("seq %d  %dx%d %s %d bytes  occupied %.2f %%  free %.2f %%  unseen %.2f %%  "
+              "cameras used %d of %d: %s" %
+              (frame["seq"], frame["width"], frame["height"], how, frame["bytes"],
+               100 * frame["occupied"], 100 * frame["free"], 100 * frame["unseen"],
+               len(frame["used"]), len(frame["cameras"]),
+               printable(",".join(frame["used"])) or "-"),
+              flush=True)
+
     def show(data):
-        nonlocal maps, undecodable, lost, last_seq
+        nonlocal undecodable
         try:
             frame = decoder.decode(data)
         except ValueError as error:
             undecodable += 1
             print("undecodable message (%d bytes): %s" % (len(data), error), flush=True)
             return
-        maps += 1
-        if last_seq is not None and frame["seq"] > last_seq + 1:
-            lost += frame["seq"] - last_seq - 1
-        last_seq = frame["seq"]
-        print("seq %d  %dx%d %s %d bytes  occupied %.2f %%  free %.2f %%  unseen %.2f %%  "
-              "cameras used %d of %d: %s" %
-              (frame["seq"], frame["width"], frame["height"], frame["encoding"], frame["bytes"],
-               100 * frame["occupied"], 100 * frame["free"], 100 * frame["unseen"],
-               len(frame["used"]), len(frame["cameras"]),
-               printable(",".join(frame["used"])) or "-"),
-              flush=True)
+        print_map(frame)
+
+    def show_tile(channel, data):
+        """A map_tile_t: the maps it ends printed; False when `channel` is not the tiles'."""
+        nonlocal undecodable
+        if assembler is None or not tiles_pattern.fullmatch(channel):
+            return False
+        try:
+            frames = assembler.take(data)
+        except ValueError as error:
+            undecodable += 1
+            print("undecodable map_tile_t (%d bytes): %s" % (len(data), error), flush=True)
+            return True
+        for frame in frames:
+            print_map(frame)
+        return True
 
     if arguments.log:
         try:
             for channel, data, _ in read_log(arguments.log):
-                if show_other(channel, data):
+                if show_tile(channel, data) or show_other(channel, data):
+                    if arguments.count and maps >= arguments.count:
+                        break
                     continue
                 if not map_pattern.fullmatch(channel):
                     other += 1
@@ -522,21 +682,30 @@ def main():
             return 1
     else:
         try:
-            channels = [arguments.channel] + ([zones_channel, tracks_channel] if zones_t else [])
+            channels = ([arguments.channel] + ([tiles_channel] if assembler else []) +
+                        ([zones_channel, tracks_channel] if zones_t else []))
             for message in network_messages(arguments.lcm_url, channels, arguments.receiver,
                                              arguments.timeout):
                 if message is None:
                     print("nothing for %g s" % arguments.timeout, file=sys.stderr)
                     break
-                if show_other(*message):
+                if show_tile(*message) or show_other(*message):
+                    if arguments.count and maps >= arguments.count:
+                        break
                     continue
                 show(message[1])
                 if arguments.count and maps >= arguments.count:
                     break
         except KeyboardInterrupt:
             pass
+    # A tiled map still waiting for tiles when the stream ended: shown with them unseen.
+    if assembler is not None and not (arguments.count and maps >= arguments.count):
+        for frame in assembler.flush():
+            print_map(frame)
     print("maps %d, lost %d (seq gaps), undecodable %d, other channels %d, zones_t %d, "
-          "tracks_t %d" % (maps, lost, undecodable, other, zones_heard, tracks_heard), flush=True)
+          "tracks_t %d, tiles lost %d" %
+          (maps, lost, undecodable, other, zones_heard, tracks_heard,
+           assembler.tiles_lost if assembler else 0), flush=True)
     return 0 if maps > 0 else 3
 
 
