@@ -23,6 +23,7 @@ Command addRecordCommand(CLI::App& app);
 Command addScoreCommand(CLI::App& app);
 Command addTruthCommand(CLI::App& app);
 Command addMergeCommand(CLI::App& app);
+Command addWebCommand(CLI::App& app);
 // occmap calibrate and its steps (each adds itself to `calibrate`).
 Command addCalibrateCommand(CLI::App& app);
 Command addCalibrateBoardCommand(CLI::App& calibrate);

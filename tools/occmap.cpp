@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   add(tools::addScoreCommand, "score");
   add(tools::addTruthCommand, "truth");
   add(tools::addMergeCommand, "merge");
+  add(tools::addWebCommand, "web");
   add(tools::addCalibrateCommand, "calibrate");
   try {
     app.parse(argc, argv);

@@ -1,0 +1,120 @@
+#pragma once
+// What `occmap web` holds of the bus: the newest map (as the binary frame every browser is sent,
+// and a short ring of recent maps for GET /map.png), the newest status of every daemon heard (as
+// the JSON `occmap status --json` prints), and the newest zones and tracks (as JSON). Only the
+// newest of each: nothing queues. One thread puts (BusFeed's, the LCM thread), any thread reads;
+// what is handed out is shared and immutable, so that a reader holds no lock while it sends, and a
+// put never waits for a reader.
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "core/map_geometry.h"
+
+namespace occmap::web {
+
+using SharedBytes = std::shared_ptr<const std::vector<std::uint8_t>>;
+using SharedText = std::shared_ptr<const std::string>;
+
+// One map as received (the cells of a map_frame_t, or of its tiles put together).
+struct HeldMap {
+  std::int64_t seq = 0;
+  std::int64_t utime = 0;       // capture time of its newest frame, us since the Unix epoch
+  std::int64_t recv_utime = 0;  // when it was received here
+  OccupancyMap map;
+};
+
+// A daemon heard on the status channels: a camera PC's occmapd (status_t) or a merge node
+// (merge_status_t).
+struct DaemonHeard {
+  std::string hostname;
+  std::string config_file;
+  bool merge_node = false;
+  SharedText status_json;     // formatStatusJson / formatMergeStatusJson, one line
+  std::int64_t heard_ns = 0;  // CLOCK_MONOTONIC when its newest status came
+
+  bool sameDaemon(const DaemonHeard& other) const {
+    return hostname == other.hostname && merge_node == other.merge_node &&
+           config_file == other.config_file;
+  }
+};
+
+// A change counter per kind: a reader that kept the last it saw knows what is new.
+struct LiveGenerations {
+  std::uint64_t map = 0;
+  std::uint64_t daemons = 0;
+  std::uint64_t zones = 0;
+  std::uint64_t tracks = 0;
+};
+
+// What was heard, counted since the start.
+struct LiveCounters {
+  std::uint64_t maps = 0;
+  std::uint64_t statuses = 0;
+  std::uint64_t zones = 0;
+  std::uint64_t tracks = 0;
+  std::uint64_t refused = 0;  // messages that did not decode, on any channel
+  std::string last_refusal;   // "CHANNEL: why"
+};
+
+class LiveState {
+ public:
+  // Maps kept for GET /map.png?seq=N: about a second at 30 maps a second.
+  static constexpr std::size_t kRecentMaps = 30;
+  // The most daemons held (anyone on the segment can publish statuses under any name).
+  static constexpr std::size_t kMaxDaemons = 64;
+  // A daemon not heard for this long is forgotten.
+  static constexpr std::int64_t kForgetDaemonNs = 60'000'000'000;
+
+  LiveState() = default;
+  LiveState(const LiveState&) = delete;
+  LiveState& operator=(const LiveState&) = delete;
+
+  // Called after every put, on the putting thread, outside the lock: the server's wake-up (it
+  // must not block). Set it before anything is put.
+  void setOnChange(std::function<void()> on_change) { on_change_ = std::move(on_change); }
+
+  // The putting thread's side.
+  void putMap(std::shared_ptr<const HeldMap> map, SharedBytes frame);
+  // Replaces the status of the same daemon (DaemonHeard::sameDaemon), or adds it.
+  void putDaemon(DaemonHeard daemon);
+  void putZones(SharedText json);
+  void putTracks(SharedText json);
+  void countRefused(std::string what);
+
+  // Any thread.
+  LiveGenerations generations() const;
+  SharedBytes newestMapFrame() const;
+  std::shared_ptr<const HeldMap> newestMap() const;
+  // The map numbered `seq` while it is among the last kRecentMaps, or nullptr.
+  std::shared_ptr<const HeldMap> recentMap(std::int64_t seq) const;
+  // Every daemon heard within kForgetDaemonNs of `now_ns`, sorted by host (a camera PC before a
+  // merge node of the same host), then by config file.
+  std::vector<DaemonHeard> daemons(std::int64_t now_ns) const;
+  SharedText zones() const;
+  SharedText tracks() const;
+  LiveCounters counters() const;
+
+ private:
+  void changed() const {
+    if (on_change_) on_change_();
+  }
+
+  std::function<void()> on_change_;
+  mutable std::mutex mutex_;
+  LiveGenerations generations_;
+  LiveCounters counters_;
+  SharedBytes map_frame_;
+  std::deque<std::shared_ptr<const HeldMap>> recent_;  // oldest first
+  std::vector<DaemonHeard> daemons_;
+  SharedText zones_;
+  SharedText tracks_;
+};
+
+}  // namespace occmap::web
