@@ -54,6 +54,8 @@ bool fuzzLightingStatus(Input input);  // lighting_status: lighting_status_t, re
 bool fuzzViewStatus(Input input);      // view_status: view_status_t, read by occmap status
 bool fuzzTracks(Input input);          // tracks: tracks_t, read by occmap status
 bool fuzzZones(Input input);           // zones: zones_t, read by occmap status
+bool fuzzMapTile(Input input);         // map_tile: map_tile_t messages, put together by MapReceiver
+bool fuzzMergeStatus(Input input);     // merge_status: merge_status_t, read by occmap status
 
 // The key the control_request seeds are signed with (fuzz_make_seeds): bytes 0, 1, ..., 31. Not
 // a secret: it exists so that fuzzing starts from requests whose mac holds.
@@ -87,6 +89,8 @@ inline constexpr Target kTargets[] = {
     {"view_status", fuzzViewStatus},
     {"tracks", fuzzTracks},
     {"zones", fuzzZones},
+    {"map_tile", fuzzMapTile},
+    {"merge_status", fuzzMergeStatus},
 };
 
 }  // namespace occmap::fuzz

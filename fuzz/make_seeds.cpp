@@ -3,9 +3,11 @@
 // since types are never changed in place) and commit the files:
 //   build-fuzz/fuzz/fuzz_make_seeds fuzz/corpus
 // The config and calibration seeds are text files written by hand (docs/fuzzing.md, "Seeds").
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -14,6 +16,8 @@
 #include <occmap/control_request_t.hpp>
 #include <occmap/control_status_t.hpp>
 #include <occmap/lighting_status_t.hpp>
+#include <occmap/map_tile_t.hpp>
+#include <occmap/merge_status_t.hpp>
 #include <occmap/status_request_t.hpp>
 #include <occmap/status_t.hpp>
 #include <occmap/tracks_t.hpp>
@@ -21,8 +25,10 @@
 #include <occmap/zones_t.hpp>
 
 #include "fuzz/fuzz_target.h"
+#include "fuzz/map_tile_input.h"
 #include "transport/control_message.h"
 #include "transport/map_codec.h"
+#include "transport/map_tiles.h"
 
 namespace {
 
@@ -44,35 +50,165 @@ void writeMessage(const fs::path& file, const Message& message) {
   write(file, bytes);
 }
 
-void writeMap(const fs::path& file, const occmap::MapGeometry& geometry,
-              const std::vector<std::string>& names, occmap::MapEncoding encoding) {
+// A room-like map: unseen border, free floor, a few occupied blobs (moved by `shift` cells), the
+// second camera down, the others streaming.
+occmap::MapFrame roomFrame(const occmap::MapGeometry& geometry, std::size_t camera_count,
+                           std::int64_t seq, std::int64_t utime, int shift = 0) {
   using occmap::CameraState;
   using occmap::CellState;
-  occmap::MapEncoder encoder(geometry, names, encoding);
-  occmap::MapFrame frame(geometry, names.size());
-  frame.seq = 1234;
-  frame.utime = 1'700'000'000'123'456;
-  // A room-like map: unseen border, free floor, a few occupied blobs.
+  occmap::MapFrame frame(geometry, camera_count);
+  frame.seq = seq;
+  frame.utime = utime;
   for (int row = 0; row < geometry.height; ++row) {
     for (int column = 0; column < geometry.width; ++column) {
       const bool border =
           row == 0 || column == 0 || row == geometry.height - 1 || column == geometry.width - 1;
-      const bool blob = (row / 3 + column / 3) % 4 == 1;
+      const bool blob = (row / 3 + (column + shift) / 3) % 4 == 1;
       frame.map.cells[static_cast<std::size_t>(geometry.index(row, column))] =
           border ? CellState::kUnseen
           : blob ? CellState::kOccupied
                  : CellState::kFree;
     }
   }
-  for (std::size_t k = 0; k < names.size(); ++k) {
+  for (std::size_t k = 0; k < camera_count; ++k) {
     const bool down = k == 1;
     frame.cameras[k] = {down ? CameraState::kDown : CameraState::kStreaming, !down,
                         down ? -1 : static_cast<std::int64_t>(100 + k),
                         down ? 0 : frame.utime - static_cast<std::int64_t>(k) * 1000};
   }
+  return frame;
+}
+
+std::vector<std::uint8_t> encodeMap(const occmap::MapGeometry& geometry,
+                                    const std::vector<std::string>& names,
+                                    occmap::MapEncoding encoding, const occmap::MapFrame& frame) {
+  occmap::MapEncoder encoder(geometry, names, encoding);
   const std::span<const std::uint8_t> bytes = encoder.encode(frame);
   if (bytes.empty()) throw std::runtime_error(encoder.lastError());
-  write(file, bytes);
+  return {bytes.begin(), bytes.end()};
+}
+
+void writeMap(const fs::path& file, const occmap::MapGeometry& geometry,
+              const std::vector<std::string>& names, occmap::MapEncoding encoding) {
+  write(file, encodeMap(geometry, names, encoding,
+                        roomFrame(geometry, names.size(), 1234, 1'700'000'000'123'456)));
+}
+
+// Tile `index` of `frame`, as MapTileEncoder makes it.
+std::span<const std::uint8_t> encodeTile(occmap::MapTileEncoder& encoder,
+                                         const occmap::MapFrame& frame, int index) {
+  const std::span<const std::uint8_t> bytes = encoder.encode(frame, index);
+  if (bytes.empty()) throw std::runtime_error(encoder.lastError());
+  return bytes;
+}
+
+// Tile `index` of `frame` in a grid of `side` cells, raw, built field by field with LCM's encoder:
+// MapTileEncoder sizes its tiles to a datagram (240 cells a side unless the camera list is long),
+// but the assembler takes any side of kMinTileSide..kMaxTileSide, and small tiles make small
+// inputs that many tiles of one map fit.
+std::vector<std::uint8_t> handMadeTile(const occmap::MapFrame& frame,
+                                       const std::vector<std::string>& names, int side, int index) {
+  const occmap::MapGeometry& g = frame.map.geometry;
+  const int columns = (g.width + side - 1) / side, rows = (g.height + side - 1) / side;
+  occmap::map_tile_t tile{};
+  tile.utime = frame.utime;
+  tile.seq = frame.seq;
+  tile.width = g.width;
+  tile.height = g.height;
+  tile.cell_size_m = g.cell_size_m;
+  tile.origin_x_m = g.origin_x_m;
+  tile.origin_y_m = g.origin_y_m;
+  tile.tile_side = side;
+  tile.first_column = index % columns * side;
+  tile.first_row = index / columns * side;
+  tile.tile_width = std::min(side, g.width - tile.first_column);
+  tile.tile_height = std::min(side, g.height - tile.first_row);
+  tile.tile_index = index;
+  tile.tile_count = columns * rows;
+  tile.encoding = occmap::map_tile_t::ENCODING_RAW;
+  for (int row = tile.first_row; row < tile.first_row + tile.tile_height; ++row) {
+    for (int column = tile.first_column; column < tile.first_column + tile.tile_width; ++column) {
+      tile.data.push_back(static_cast<std::uint8_t>(
+          frame.map.cells[static_cast<std::size_t>(g.index(row, column))]));
+    }
+  }
+  tile.data_size = static_cast<std::int32_t>(tile.data.size());
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    const occmap::CameraContribution& c = frame.cameras[k];
+    occmap::camera_frame_t camera{};
+    camera.name = names[k];
+    camera.state = static_cast<std::int8_t>(c.state);
+    camera.used = c.used;
+    camera.sequence = c.sequence;
+    camera.capture_utime = c.capture_time_us;
+    tile.cameras.push_back(camera);
+  }
+  tile.num_cameras = static_cast<std::int16_t>(tile.cameras.size());
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(tile.getEncodedSize()));
+  tile.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+void writeMapTileSeeds(const fs::path& folder) {
+  using occmap::fuzz::appendTileInput;
+  using occmap::fuzz::kFlushAfter;
+  using occmap::fuzz::kOnMapChannel;
+  const std::int64_t utime = 1'700'000'000'123'456;
+
+  // occmapd's own tiles (zstd): a 250 x 250 map is 2 x 2 tiles of 240. A map's tiles in order; the
+  // next map's out of order with a copy; then a late tile of the first, and a copy of one of the
+  // second after it was given out.
+  {
+    const occmap::MapGeometry geometry{-0.5, -1.5, 0.02, 250, 250};
+    const std::vector<std::string> names{"c0", "c1", "c2"};
+    occmap::MapTileEncoder encoder(geometry, names, occmap::MapEncoding::kZstd);
+    const occmap::MapFrame first = roomFrame(geometry, names.size(), 1234, utime);
+    const occmap::MapFrame second = roomFrame(geometry, names.size(), 1235, utime + 33'333, 1);
+    std::vector<std::uint8_t> input;
+    for (const int index : {0, 1, 2, 3}) appendTileInput(input, encodeTile(encoder, first, index));
+    for (const int index : {2, 0, 0, 3, 1})
+      appendTileInput(input, encodeTile(encoder, second, index));
+    appendTileInput(input, encodeTile(encoder, first, 1));
+    appendTileInput(input, encodeTile(encoder, second, 2));
+    write(folder / "zstd-250x250-shuffled-copied-late.bin", input);
+  }
+  // occmapd's own tiles (raw): a 241 x 5 map is a tile of 240 x 5 and one of 1 x 5. A map whose
+  // second tile is lost (given out when the next map's first tile comes); a whole map_frame_t on
+  // the map channel; the next map's tiles backwards; a map cut short by the stream stopping.
+  {
+    const occmap::MapGeometry geometry{0.0, 0.0, 0.1, 241, 5};
+    const std::vector<std::string> names{"c0", "c1"};
+    occmap::MapTileEncoder encoder(geometry, names, occmap::MapEncoding::kRaw);
+    std::vector<std::uint8_t> input;
+    appendTileInput(input, encodeTile(encoder, roomFrame(geometry, 2, 10, utime), 0));
+    const occmap::MapGeometry whole{-1.0, -1.5, 0.25, 8, 6};
+    appendTileInput(input,
+                    encodeMap(whole, names, occmap::MapEncoding::kRaw,
+                              roomFrame(whole, 2, 4321, utime + 10'000)),
+                    kOnMapChannel);
+    const occmap::MapFrame next = roomFrame(geometry, 2, 11, utime + 33'333, 2);
+    appendTileInput(input, encodeTile(encoder, next, 1));
+    appendTileInput(input, encodeTile(encoder, next, 0));
+    appendTileInput(input, encodeTile(encoder, roomFrame(geometry, 2, 12, utime + 66'666), 0),
+                    kFlushAfter);
+    write(folder / "raw-241x5-lost-tile-whole-map-flush.bin", input);
+  }
+  // Tiles of 16 cells: a 40 x 30 map is 3 x 2 tiles, the last column 8 wide and the last row 14
+  // high, sent backwards; then a restarted publisher (seq from 0 again, a newer capture) with a
+  // 20 x 20 map of 2 x 2 tiles and no cameras.
+  {
+    const occmap::MapGeometry geometry{-0.4, -0.3, 0.05, 40, 30};
+    const std::vector<std::string> names{"door-camera"};
+    const occmap::MapFrame frame = roomFrame(geometry, names.size(), 500, utime);
+    std::vector<std::uint8_t> input;
+    for (int index = 5; index >= 0; --index) {
+      appendTileInput(input, handMadeTile(frame, names, 16, index));
+    }
+    const occmap::MapGeometry restarted{0.0, 0.0, 0.05, 20, 20};
+    const occmap::MapFrame again = roomFrame(restarted, 0, 0, utime + 1'000'000);
+    for (const int index : {0, 1, 2, 3}) appendTileInput(input, handMadeTile(again, {}, 16, index));
+    write(folder / "side-16-40x30-then-restarted-publisher.bin", input);
+  }
 }
 
 occmap::camera_status_t camera(const std::string& name, const std::string& source, int state) {
@@ -303,5 +439,68 @@ int main(int argc, char** argv) {
            {"c0", "c1", "c2"}, occmap::MapEncoding::kZstd);
   writeMap(corpus / "map_frame" / "zstd-5x5-no-cameras.bin", {0.0, 0.0, 1.0, 5, 5}, {},
            occmap::MapEncoding::kZstd);
+
+  writeMapTileSeeds(corpus / "map_tile");
+
+  // A merge node's status (lcmtypes/merge_status_t.lcm): one input fresh, one down that lost
+  // tiles, refused messages and whose clock is off, one never heard (its age and clock offset NaN,
+  // not yet known); then an answer of a node just started, without inputs.
+  occmap::merge_status_t merge{};
+  merge.utime = status.utime;
+  merge.request_id = -1;
+  merge.hostname = "merge-pc";
+  merge.config_file = "/etc/occmap/merge.yaml";
+  merge.map_channel = "OCCMAP_MAP";
+  merge.state = occmap::status_t::STATE_RUNNING;
+  merge.uptime_s = 3725.25;
+  merge.maps_published = 111'000;
+  merge.publish_errors = 1;
+  merge.maps_per_s = 29.8;
+  merge.max_age_ms = 200;
+  merge.latency_p50_ms = 0.9;
+  merge.latency_p99_ms = 2.6;
+  merge.latency_last_ms = 1.1;
+  merge.merge_p50_ms = 0.4;
+  merge.merge_p99_ms = 1.7;
+  merge.clock_warning_ms = 10;
+  const auto mergeInput = [](const char* name, const char* channel, std::int8_t state) {
+    occmap::merge_input_status_t in{};
+    in.name = name;
+    in.channel = channel;
+    in.state = state;
+    in.age_ms = std::numeric_limits<double>::quiet_NaN();
+    in.clock_offset_ms = std::numeric_limits<double>::quiet_NaN();
+    return in;
+  };
+  merge.inputs = {
+      mergeInput("pc-north", "OCCMAP_MAP_NORTH", occmap::merge_input_status_t::STATE_FRESH),
+      mergeInput("pc-south", "OCCMAP_MAP_SOUTH", occmap::merge_input_status_t::STATE_DOWN),
+      mergeInput("pc-east", "OCCMAP_MAP_EAST", occmap::merge_input_status_t::STATE_NEVER_HEARD)};
+  merge.inputs[0].maps = 111'200;
+  merge.inputs[0].maps_per_s = 29.9;
+  merge.inputs[0].age_ms = 0;
+  merge.inputs[0].lost_maps = 3;
+  merge.inputs[0].clock_offset_ms = 0.4;
+  merge.inputs[1].maps = 90'000;
+  merge.inputs[1].maps_per_s = 0;
+  merge.inputs[1].age_ms = 2400;
+  merge.inputs[1].lost_maps = 17;
+  merge.inputs[1].tiles_lost = 12;
+  merge.inputs[1].refused = 2;
+  merge.inputs[1].clock_offset_ms = -14.2;
+  merge.inputs[1].last_error = "OCCMAP_MAP_SOUTH_TILES: tile_index 9 is outside 0..8";
+  merge.num_inputs = static_cast<std::int16_t>(merge.inputs.size());
+  writeMessage(corpus / "merge_status" / "periodic-3-inputs.bin", merge);
+  merge.request_id = 77;
+  merge.state = occmap::status_t::STATE_STARTING;
+  merge.uptime_s = 0.2;
+  merge.maps_published = 0;
+  merge.publish_errors = 0;
+  merge.maps_per_s = 0;
+  merge.latency_p50_ms = merge.latency_p99_ms = merge.latency_last_ms = 0;
+  merge.merge_p50_ms = merge.merge_p99_ms = 0;
+  merge.inputs.clear();
+  merge.num_inputs = 0;
+  writeMessage(corpus / "merge_status" / "answer-no-inputs.bin", merge);
   return 0;
 }
