@@ -494,8 +494,8 @@ const std::vector<Detection>& FootprintDetector::detect(
           const std::size_t u0 = tile * 8;
           const std::size_t valid =
               std::min<std::size_t>(8, static_cast<std::size_t>(plane.width) - u0);
-          const auto& groups = kBitsIn[std::countr_zero(static_cast<unsigned>(plane.block))]
-                                      [byte & ((1u << valid) - 1u)];
+          const auto& groups = kBitsIn[static_cast<std::size_t>(
+              std::countr_zero(static_cast<unsigned>(plane.block)))][byte & ((1u << valid) - 1u)];
           const std::size_t first = plane.block_of[u0];
           const std::size_t n =
               std::min<std::size_t>(8 / static_cast<std::size_t>(plane.block),
