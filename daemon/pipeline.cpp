@@ -20,6 +20,7 @@
 #include "core/opencv_camera.h"
 #include "core/pacing.h"
 #include "daemon/service_notifier.h"
+#include "transport/camera_preview_message.h"
 #include "transport/control_message.h"
 #include "transport/status_requests.h"
 #include "transport/status_text.h"
@@ -30,6 +31,9 @@ namespace {
 constexpr std::int64_t kMs = 1'000'000;
 // The footprints thread's nice value: the map's threads first (setpriority(2) on a thread id).
 constexpr int kFootprintsNice = 10;
+// The previewer's: below the footprints too. A preview late under load costs a client a picture;
+// a late map or track costs more.
+constexpr int kPreviewerNice = 15;
 // The longest a fusion or publisher round sleeps: camera states are looked at this often.
 constexpr std::int64_t kLongestWaitNs = 100 * kMs;
 
@@ -117,6 +121,8 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
     footprints_ =
         std::make_unique<FootprintsStage>(config.map, posed, config.footprints, mask_bytes);
   }
+  previewer_ = std::make_unique<Previewer>(report_.hostname, cameraNames(prepared_.rig),
+                                           prepared_.tables, options_.preview_for);
   RemoteControl::Options control;
   control.state_directory = options_.state_directory;
   control.max_requests_per_s = options_.max_control_requests_per_s;
@@ -172,6 +178,13 @@ void Pipeline::start() {
       guarded("footprints", kNoCamera, [this] { footprints_->run(publish_wakeup_); });
     });
   }
+  previewer_thread_ = std::thread([this] {
+    if (::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), kPreviewerNice) != 0) {
+      logLine(LogLevel::kWarning, "the previewer thread keeps its priority: %s",
+              std::strerror(errno));
+    }
+    guarded("previewer", kNoCamera, [this] { previewer_->run(publish_wakeup_); });
+  });
   for (std::size_t k = 0; k < cameras_.size(); ++k) {
     threads_.emplace_back([this, k] { guarded("capture", k, [this, k] { captureLoop(k); }); });
   }
@@ -188,6 +201,8 @@ void Pipeline::stop() {
     footprints_->stop();  // it finds the people on the last map first
     footprints_thread_.join();
   }
+  previewer_->stop();  // a preview under way is finished; those not yet made are not
+  previewer_thread_.join();
   stop_publisher_.store(true);
   publish_wakeup_.signal();
   threads_[0].join();
@@ -353,6 +368,14 @@ void Pipeline::captureLoop(std::size_t k) {
     camera.last_capture_us.store(frame.capture_time_us, std::memory_order_relaxed);
     camera.health.frameArrived(now);
     fusion_wakeup_.signal();
+    // A preview for a live view (previewer.h): one atomic load unless a client asks, a shrunk copy
+    // at most twice a second when one does; after the hand-off, so that fusion never waits for
+    // it. The mask handed over is only read from here on (as fusion and the footprints' copy only
+    // read it), and this thread writes into it again only after a later publish() gives it back.
+    if (previewer_->due(k, now, frame.capture_time_us)) {
+      previewer_->offer(k, frame.image, slot.changed.data(), frame.sequence, frame.capture_time_us,
+                        camera.health.state(now));
+    }
   }
 }
 
@@ -627,6 +650,20 @@ void Pipeline::publisherLoop() {
                 [this, &bus](const std::uint8_t* data, std::size_t size, std::int64_t) {
                   control_->handle(data, size, hostTimeMicroseconds(), bus);
                 });
+  // Preview requests only move the named cameras' deadlines (previewer.h): nothing is queued, so a
+  // flood of them costs no more than their decoding. A request naming no camera of ours is for
+  // another daemon on the channel.
+  bus.subscribe(cameraPreviewRequestChannel(transport.status_channel),
+                [this](const std::uint8_t* data, std::size_t size, std::int64_t) {
+                  const std::optional<std::string_view> camera =
+                      decodeCameraPreviewRequest(data, size);
+                  if (!camera) {
+                    ++preview_requests_ignored_;
+                    return;
+                  }
+                  previewer_->requested(*camera, monotonicNanoseconds());
+                });
+  const std::string preview_channel = cameraPreviewChannel(transport.status_channel);
   StatusPublisher status(transport.status_channel, cameras_.size(), now);
   const std::int64_t status_period_ns = std::chrono::nanoseconds(options_.status_period).count();
   std::int64_t next_status_ns = now;
@@ -641,6 +678,16 @@ void Pipeline::publisherLoop() {
     }
     publishTracks(bus);
   };
+  // After the maps: the newest preview of each camera, if the previewer made one since.
+  auto publishPreviews = [&] {
+    for (std::size_t k = 0; k < previewer_->cameraCount(); ++k) {
+      if (const std::vector<std::uint8_t>* preview = previewer_->takeMessage(k)) {
+        if (bus.publish(preview_channel, *preview)) {
+          previews_published_.fetch_add(1, std::memory_order_relaxed);
+        }
+      }
+    }
+  };
 
   pollfd fds[2] = {{publish_wakeup_.fd(), POLLIN, 0}, {bus.fileno(), POLLIN, 0}};
   while (!stop_publisher_.load(std::memory_order_relaxed)) {
@@ -648,6 +695,7 @@ void Pipeline::publisherLoop() {
     ::poll(fds, 2, pollTimeoutMs(next_status_ns, monotonicNanoseconds()));
     if (fds[0].revents & POLLIN) publish_wakeup_.drain();
     publishNewestMap();
+    publishPreviews();
     if (fds[1].revents & POLLIN) bus.handleTimeout(0);
     control_->publishReplies(bus);
     now = monotonicNanoseconds();
@@ -667,6 +715,10 @@ void Pipeline::publisherLoop() {
   if (requests.ignored() > 0) {
     logLine(LogLevel::kInfo, "%llu malformed or excess status requests were ignored",
             static_cast<unsigned long long>(requests.ignored()));
+  }
+  if (preview_requests_ignored_ > 0) {
+    logLine(LogLevel::kInfo, "%llu malformed preview requests were ignored",
+            static_cast<unsigned long long>(preview_requests_ignored_));
   }
 }
 

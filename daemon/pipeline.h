@@ -6,7 +6,8 @@
 // This is the wiring: the threads and what they hand each other. The rules they follow are plain
 // code elsewhere, with time passed in: camera health (core/camera_health.h), frame sets
 // (core/frame_set.h), pacing and reconnection (core/pacing.h), the fusion (core/fusion_kernel.h),
-// publishing (transport/map_publisher.h, status_publisher.h, status_requests.h).
+// publishing (transport/map_publisher.h, status_publisher.h, status_requests.h). Camera previews
+// for a live view are made beside this path, only while a client asks (daemon/previewer.h).
 // Everything on the data path is allocated before start(); it then takes no locks, allocates
 // nothing and logs only through rate limits. No exception leaves a thread: a camera whose thread
 // fails goes down with the reason in its status; a fusion or publisher thread that fails ends the
@@ -36,6 +37,7 @@
 #include "core/triple_buffer.h"
 #include "core/zones.h"
 #include "daemon/footprints_stage.h"
+#include "daemon/previewer.h"
 #include "daemon/remote_control.h"
 #include "daemon/reposer.h"
 #include "transport/bus.h"
@@ -59,6 +61,9 @@ struct PipelineOptions {
   double max_control_requests_per_s = 10.0;
   // Where a recaptured background is saved ($STATE_DIRECTORY under systemd), or nowhere.
   std::optional<std::filesystem::path> state_directory;
+  // How long a camera's previews (camera_preview_t) are made after the last request naming it (or
+  // all): clients ask again every few seconds while they show them. Tests shorten it.
+  std::chrono::milliseconds preview_for{10'000};
 };
 
 class Pipeline {
@@ -111,6 +116,14 @@ class Pipeline {
     return cameras_[camera]->control.threshold.load(std::memory_order_relaxed);
   }
   const Config& config() const { return prepared_.rig.config(); }
+  // Camera previews (daemon/previewer.h): how long each took the previewer's thread, how many were
+  // made and sent, and how many would not fit a datagram (not sent).
+  const TimeHistogram& previewTimes() const { return previewer_->times(); }
+  std::uint64_t previewsMade() const { return previewer_->made(); }
+  std::uint64_t previewsPublished() const {
+    return previews_published_.load(std::memory_order_relaxed);
+  }
+  std::uint64_t previewsTooLarge() const { return previewer_->tooLarge(); }
   // After stop(): the rig (with its open cameras) and the tables, for a reload to take over.
   PreparedRig takePrepared() { return std::move(prepared_); }
 
@@ -216,6 +229,13 @@ class Pipeline {
   // The people on the maps: their own thread (footprints_stage.h), nullptr when off.
   std::unique_ptr<FootprintsStage> footprints_;
   std::thread footprints_thread_;
+
+  // Camera previews for a live view: their own thread, fed by the capture threads only while a
+  // client asks (previewer.h); the publisher sends what it makes.
+  std::unique_ptr<Previewer> previewer_;
+  std::thread previewer_thread_;
+  std::atomic<std::uint64_t> previews_published_{0};
+  std::uint64_t preview_requests_ignored_ = 0;  // publisher thread: malformed requests
 
   // Publisher thread state.
   MapPublisher map_publisher_;
