@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <string>
 #include <thread>
@@ -388,9 +389,81 @@ TEST_F(WebBrowser, TheCameraTableIsWhatOccmapStatusSays) {
       "(() => { const r = document.querySelector('tr[data-zone=\"walkway\"]'); "
       "return r ? r.dataset.state : null; })()");
   EXPECT_TRUE(zone == "free" || zone == "occupied" || zone == "unseen") << zone.dump();
-  // The place kept for phase 2: a card per camera, and no picture made up.
+  // A card per camera.
   EXPECT_EQ(devtools_->evaluate("document.querySelectorAll('.camera-card').length"), 5);
-  EXPECT_EQ(devtools_->evaluate("document.querySelectorAll('#camera-views img').length"), 0);
+}
+
+// Each camera card shows the camera's picture (the daemon's preview, asked for while the page is
+// open) with its changed pixels over it; the pointer over a card highlights that camera's cells on
+// the map; the coverage switch shows /coverage.png over the map.
+TEST_F(WebBrowser, EachCameraCardShowsItsPictureAndHoveringHighlightsItsCells) {
+  constexpr const char* kPictures =
+      "Array.from(document.querySelectorAll('.camera-card')).map((card) => {"
+      "  const f = card.querySelector('img.frame'), c = card.querySelector('img.changed');"
+      "  return [card.dataset.camera, f && f.complete ? f.naturalWidth : 0,"
+      "          c && c.complete ? c.naturalWidth : 0]; })";
+  const auto all_loaded = [](const Json& v) {
+    return v.is_array() && v.size() == 5 && std::all_of(v.begin(), v.end(), [](const Json& card) {
+             return card[1].get<int>() > 0 && card[2].get<int>() > 0;
+           });
+  };
+  const auto started = std::chrono::steady_clock::now();
+  const auto loaded = devtools_->waitFor(kPictures, all_loaded, eventually(8s));
+  ASSERT_TRUE(loaded) << devtools_->evaluate(kPictures).dump();
+  std::printf("every camera's picture and changed pixels showed within %.2f s: %s\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(),
+              loaded->dump().c_str());
+  // The simulated room's cameras are 640 x 480: previews of 320 x 240 (the door's is smaller).
+  for (const Json& card : *loaded) {
+    if (card[0] != "door") {
+      EXPECT_EQ(card[1], 320) << card.dump();
+    }
+  }
+
+  // The pointer over c1's card: the page says so, and draws its cells over the map.
+  const Json entered = devtools_->evaluate(
+      "(() => { const card = document.querySelector('.camera-card[data-camera=\"c1\"]');"
+      " card.dispatchEvent(new MouseEvent('mouseenter')); return card.dataset.host; })()");
+  ASSERT_TRUE(entered.is_string()) << entered.dump();
+  const std::string highlighted = entered.get<std::string>() + "/c1";
+  const std::string cells_expression =
+      "(() => { const c = document.getElementById('cells'); "
+      "return [document.body.dataset.highlighted || null, c.hidden, c.naturalWidth]; })()";
+  const auto shown = devtools_->waitFor(
+      cells_expression,
+      [&](const Json& v) {
+        return v.is_array() && v[0] == highlighted && v[1] == false && v[2] == 256;
+      },
+      eventually(3s));
+  EXPECT_TRUE(shown) << devtools_->evaluate(cells_expression).dump();
+  devtools_->evaluate(
+      "document.querySelector('.camera-card[data-camera=\"c1\"]')"
+      ".dispatchEvent(new MouseEvent('mouseleave'))");
+  EXPECT_EQ(devtools_->evaluate(cells_expression)[0], nullptr);
+  EXPECT_EQ(devtools_->evaluate(cells_expression)[1], true);
+
+  // The coverage switch.
+  devtools_->evaluate("document.getElementById('show-coverage').click()");
+  const auto coverage = devtools_->waitFor(
+      "(() => { const c = document.getElementById('coverage'); "
+      "return [c.hidden, c.naturalWidth]; })()",
+      [](const Json& v) { return v.is_array() && v[0] == false && v[1] == 256; }, eventually(3s));
+  EXPECT_TRUE(coverage) << "the coverage picture did not show";
+
+  // For docs/web.md: the page with the previews, taken when asked (OCCMAP_WEB_SCREENSHOT=FILE,
+  // written as base64; `base64 -d` makes the PNG).
+  if (const char* screenshot = std::getenv("OCCMAP_WEB_SCREENSHOT")) {
+    devtools_->evaluate("document.getElementById('show-coverage').click()");
+    devtools_->evaluate(
+        "document.querySelector('.camera-card[data-camera=\"c1\"]')"
+        ".dispatchEvent(new MouseEvent('mouseenter'))");
+    std::this_thread::sleep_for(1500ms);
+    const auto shot = devtools_->call("Page.captureScreenshot", {{"format", "png"}});
+    ASSERT_TRUE(shot) << devtools_->lastError();
+    std::ofstream(screenshot) << (*shot)["data"].get<std::string>();
+  } else {
+    devtools_->evaluate("document.getElementById('show-coverage').click()");
+  }
 }
 
 TEST_F(WebBrowser, ACameraMadeToFailShowsAsDownWithinTwoSeconds) {

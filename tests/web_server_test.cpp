@@ -20,6 +20,9 @@
 
 #include "command_runner.h"
 #include "network_namespace.h"
+#include "transport/camera_preview_message.h"
+#include "transport/lcm_bus.h"
+#include "web/camera_path.h"
 #include "web/listen_address.h"
 #include "web/map_wire.h"
 #include "web_test_support.h"
@@ -74,6 +77,35 @@ TEST(WebWire, AMapFrameCarriesEveryCellAndTheGeometryAndIsRefusedWhenCut) {
   std::vector<std::uint8_t> other = frame;
   other[4] = 2;
   EXPECT_FALSE(web::decodeMapFrame(other).has_value()) << "another version";
+}
+
+TEST(WebCameraPath, NamesAreDecodedAndNothingButANameIsTaken) {
+  web::CameraPathError error{};
+  const auto frame = web::parseCameraPath("/camera/vm/c%200.jpg", error);
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->hostname, "vm");
+  EXPECT_EQ(frame->camera, "c 0");
+  EXPECT_EQ(frame->picture, web::CameraPath::Picture::kFrame);
+  const auto cells = web::parseCameraPath("/camera/pc-1/door/cells.png", error);
+  ASSERT_TRUE(cells);
+  EXPECT_EQ(cells->camera, "door");
+  EXPECT_EQ(cells->picture, web::CameraPath::Picture::kCells);
+  EXPECT_EQ(web::parseCameraPath("/camera/vm/c0/changed.png", error)->picture,
+            web::CameraPath::Picture::kChanged);
+  // Not one of a camera's pictures: 404.
+  for (const char* path : {"/camera/vm/c0", "/camera/vm/c0/other.png", "/camera/vm/x/../c0.jpg",
+                           "/camera/c0.jpg", "/cameras/vm/c0.jpg", "/camera/vm/c0/cells.png/x"}) {
+    EXPECT_FALSE(web::parseCameraPath(path, error)) << path;
+    EXPECT_EQ(error, web::CameraPathError::kNotACameraPath) << path;
+  }
+  // A name that is more than a name, or does not decode: 400.
+  for (const char* path :
+       {"/camera/../c0.jpg", "/camera/vm/..%2Fc0.jpg", "/camera/%2E%2E/c0.jpg",
+        "/camera/vm%2F..%2Fx/c0.jpg", "/camera/vm/c%zz.jpg", "/camera/vm/c%0.jpg",
+        "/camera//c0.jpg", "/camera/vm/.jpg", "/camera/vm/c%000.jpg"}) {
+    EXPECT_FALSE(web::parseCameraPath(path, error)) << path;
+    EXPECT_EQ(error, web::CameraPathError::kBadName) << path;
+  }
 }
 
 TEST(WebListen, AddressesAreParsedAndNamesOtherThanLocalhostRefused) {
@@ -270,6 +302,107 @@ TEST_F(WebServer, MapPngIsTheMapAsAFloorPlanAndTheMapFramesCarryTheSameCells) {
   EXPECT_EQ(head.status, 200) << head.error;
   EXPECT_GT(std::atol(head.header("content-length").c_str()), 1000);
   EXPECT_TRUE(head.body.empty());
+}
+
+// While a browser is connected the server asks for previews; each camera's picture, changed pixels
+// and cells are served, the cells exactly the coverage bits the daemon sent.
+TEST_F(WebServer, EachCamerasPreviewIsServedAsPicturesAndTheCellsAreItsCoverage) {
+  FeedSocket feed(port());
+  ASSERT_TRUE(feed.connected()) << feed.error();
+  Json previews;
+  const auto end = std::chrono::steady_clock::now() + eventually(8s);
+  while (std::chrono::steady_clock::now() < end && previews.size() < 4) {
+    const auto message = feed.read();
+    ASSERT_TRUE(message) << feed.error();
+    if (message->binary) continue;
+    const Json json = Json::parse(message->data);
+    if (json["type"] == "previews") previews = json["previews"];
+  }
+  ASSERT_EQ(previews.size(), 4u) << "the previews message: " << previews.dump();
+  const std::string host = previews[0]["hostname"];
+  const std::string camera = previews[0]["camera"];
+  EXPECT_EQ(camera, "c0");
+  const std::string base = "/camera/" + host + "/" + camera;
+  const auto decoded = [](const testing::HttpAnswer& answer, int flags) {
+    return cv::imdecode(std::vector<std::uint8_t>(answer.body.begin(), answer.body.end()), flags);
+  };
+
+  const testing::HttpAnswer jpeg = httpRequest(port(), base + ".jpg");
+  ASSERT_EQ(jpeg.status, 200) << jpeg.error << jpeg.body;
+  EXPECT_EQ(jpeg.header("content-type"), "image/jpeg");
+  EXPECT_EQ(jpeg.header("cache-control"), "no-store");
+  const cv::Mat frame = decoded(jpeg, cv::IMREAD_UNCHANGED);
+  ASSERT_FALSE(frame.empty()) << "the JPEG does not decode";
+  EXPECT_EQ(frame.cols, previews[0]["width"].get<int>());
+  EXPECT_EQ(frame.rows, previews[0]["height"].get<int>());
+  EXPECT_EQ(frame.cols, 320);
+  EXPECT_EQ(frame.rows, 240);
+
+  const testing::HttpAnswer changed = httpRequest(port(), base + "/changed.png");
+  ASSERT_EQ(changed.status, 200) << changed.error << changed.body;
+  EXPECT_EQ(changed.header("content-type"), "image/png");
+  EXPECT_EQ(changed.header("cache-control"), "no-store");
+  const cv::Mat overlay = decoded(changed, cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(overlay.channels(), 4) << "changed.png is not transparent";
+  EXPECT_EQ(overlay.cols, 320);
+  EXPECT_EQ(overlay.rows, 240);
+
+  // The preview as the daemon sends it, heard here too, for its coverage bits.
+  LcmBus bus(testing::kLcmUrl);
+  ASSERT_TRUE(bus.good());
+  std::optional<std::vector<std::uint8_t>> coverage;
+  int map_width = 0, map_height = 0;
+  ASSERT_TRUE(bus.subscribe(cameraPreviewChannel("OCCMAP_STATUS"),
+                            [&](const std::uint8_t* data, std::size_t size, std::int64_t) {
+                              const auto preview = decodeCameraPreview(data, size);
+                              if (!preview || preview->hostname != host ||
+                                  preview->camera != camera)
+                                return;
+                              coverage = previewCoverage(*preview);
+                              map_width = preview->map_width;
+                              map_height = preview->map_height;
+                            }));
+  const auto heard_by = std::chrono::steady_clock::now() + eventually(5s);
+  while (!coverage && std::chrono::steady_clock::now() < heard_by) bus.handleTimeout(100);
+  ASSERT_TRUE(coverage) << "no preview of " << camera << " heard on the bus";
+  ASSERT_EQ(map_width, 256);
+  ASSERT_EQ(map_height, 256);
+
+  const testing::HttpAnswer cells = httpRequest(port(), base + "/cells.png");
+  ASSERT_EQ(cells.status, 200) << cells.error << cells.body;
+  EXPECT_EQ(cells.header("cache-control"), "no-store");
+  const cv::Mat decided = decoded(cells, cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(decided.channels(), 4) << "cells.png is not transparent";
+  ASSERT_EQ(decided.cols, map_width);
+  ASSERT_EQ(decided.rows, map_height);
+  int differ = 0, opaque = 0;
+  for (int row = 0; row < map_height; ++row) {
+    for (int column = 0; column < map_width; ++column) {
+      // +y up: map row 0 is the picture's bottom row.
+      const bool shown = decided.at<cv::Vec4b>(map_height - 1 - row, column)[3] != 0;
+      opaque += shown;
+      const auto cell = static_cast<std::size_t>(row * map_width + column);
+      if (shown != ((*coverage)[cell] != 0)) ++differ;
+    }
+  }
+  EXPECT_EQ(differ, 0) << "cells of " << map_width * map_height << " unlike the coverage bits";
+  EXPECT_GT(opaque, 1000) << "the camera decides almost no cell";
+  std::printf("%s decides %d of %d cells\n", camera.c_str(), opaque, map_width * map_height);
+
+  const testing::HttpAnswer picture = httpRequest(port(), "/coverage.png");
+  ASSERT_EQ(picture.status, 200) << picture.error << picture.body;
+  const cv::Mat seen = decoded(picture, cv::IMREAD_COLOR);
+  EXPECT_EQ(seen.cols, map_width);
+  EXPECT_EQ(seen.rows, map_height);
+
+  // Unknown cameras and paths that try to be more than a camera's name.
+  EXPECT_EQ(httpRequest(port(), "/camera/" + host + "/nobody.jpg").status, 404);
+  EXPECT_EQ(httpRequest(port(), "/camera/nohost/" + camera + "/cells.png").status, 404);
+  EXPECT_EQ(httpRequest(port(), "/camera/" + host + "/" + camera + "/other.png").status, 404);
+  EXPECT_EQ(httpRequest(port(), "/camera/" + host + "/..%2F" + camera + ".jpg").status, 400);
+  EXPECT_EQ(httpRequest(port(), "/camera/..%2F..%2Fetc/passwd.jpg").status, 400);
+  EXPECT_EQ(httpRequest(port(), "/camera/" + host + "/x/../" + camera + ".jpg").status, 404);
+  EXPECT_EQ(httpRequest(port(), "/camera/%2e%2e/" + camera + ".jpg").status, 400);
 }
 
 TEST_F(WebServer, ApiTracksAndZonesAreTheNewestAsOccmapStatusJsonHasThem) {

@@ -40,28 +40,9 @@ int run(const CoverageOptions& o) {
   }
   // Each cell: the mean colour of the cameras that see it, brighter the more see it.
   const int scale = std::max(1, 600 / std::max(map.width, map.height));
-  cv::Mat cells(map.height, map.width, CV_8UC3);
   std::size_t counts[33] = {};
-  for (int row = 0; row < map.height; ++row) {
-    auto* out = cells.ptr<cv::Vec3b>(map.height - 1 - row);  // +y up
-    for (int column = 0; column < map.width; ++column) {
-      const std::uint32_t mask = seen_by[static_cast<std::size_t>(map.index(row, column))];
-      const int n = std::popcount(mask);
-      ++counts[n];
-      if (n == 0) {
-        out[column] = {40, 40, 40};
-        continue;
-      }
-      cv::Scalar sum(0, 0, 0);
-      for (std::size_t k = 0; k < tables.size(); ++k) {
-        if (mask >> k & 1) sum += cameraColour(k);
-      }
-      const double brightness = 0.55 + 0.45 * std::min(1.0, (n - 1) / 3.0);
-      for (int c = 0; c < 3; ++c) {
-        out[column][c] = cv::saturate_cast<std::uint8_t>(sum[c] / n * brightness + 25 * (n - 1));
-      }
-    }
-  }
+  for (const std::uint32_t mask : seen_by) ++counts[std::popcount(mask)];
+  const cv::Mat cells = coverageCells(map, seen_by, tables.size());
   cv::Mat picture;
   cv::resize(cells, picture, cv::Size(), scale, scale, cv::INTER_NEAREST);
   drawScaleBar(picture, map, scale);

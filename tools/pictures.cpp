@@ -1,6 +1,7 @@
 #include "tools/pictures.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
@@ -66,6 +67,31 @@ cv::Scalar cameraColour(std::size_t k) {
                                        {30, 200, 230}, {200, 60, 200}, {200, 200, 40},
                                        {90, 90, 160},  {40, 140, 250}};
   return colours[k % std::size(colours)];
+}
+
+cv::Mat coverageCells(const MapGeometry& map, std::span<const std::uint32_t> seen_by,
+                      std::size_t cameras) {
+  cv::Mat cells(map.height, map.width, CV_8UC3);
+  for (int row = 0; row < map.height; ++row) {
+    auto* out = cells.ptr<cv::Vec3b>(map.height - 1 - row);  // +y up
+    for (int column = 0; column < map.width; ++column) {
+      const std::uint32_t mask = seen_by[static_cast<std::size_t>(map.index(row, column))];
+      const int n = std::popcount(mask);
+      if (n == 0) {
+        out[column] = {40, 40, 40};
+        continue;
+      }
+      cv::Scalar sum(0, 0, 0);
+      for (std::size_t k = 0; k < cameras; ++k) {
+        if (mask >> k & 1) sum += cameraColour(k);
+      }
+      const double brightness = 0.55 + 0.45 * std::min(1.0, (n - 1) / 3.0);
+      for (int c = 0; c < 3; ++c) {
+        out[column][c] = cv::saturate_cast<std::uint8_t>(sum[c] / n * brightness + 25 * (n - 1));
+      }
+    }
+  }
+  return cells;
 }
 
 cv::Mat snapshot(const std::vector<std::pair<std::string, Image>>& cameras,

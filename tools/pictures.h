@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -27,5 +29,12 @@ cv::Mat snapshot(const std::vector<std::pair<std::string, Image>>& cameras,
 
 // A distinct colour for camera k (BGR), for legends.
 cv::Scalar cameraColour(std::size_t k);
+
+// Which cameras see each cell, as `occmap coverage` and `occmap web`'s /coverage.png colour it: one
+// pixel per cell, +y up; `seen_by` holds, for each cell (row-major from map row 0), bit k set when
+// camera k sees it. A cell is the mean of its cameras' colours (cameraColour), brighter the more
+// see it; dark grey where none does.
+cv::Mat coverageCells(const MapGeometry& map, std::span<const std::uint32_t> seen_by,
+                      std::size_t cameras);
 
 }  // namespace occmap::tools

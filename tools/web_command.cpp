@@ -4,11 +4,13 @@
 #include <csignal>
 #include <cstdio>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "config/config.h"
 #include "config/exit_codes.h"
@@ -43,6 +45,28 @@ std::vector<std::uint8_t> mapPicture(const web::HeldMap& held) {
   return png;
 }
 
+// A camera's changed pixels and cells: RGBA as a PNG with its alpha.
+std::vector<std::uint8_t> rgbaPicture(int width, int height, std::span<const std::uint8_t> rgba) {
+  const cv::Mat pixels(height, width, CV_8UC4, const_cast<std::uint8_t*>(rgba.data()));
+  cv::Mat bgra;
+  cv::cvtColor(pixels, bgra, cv::COLOR_RGBA2BGRA);
+  std::vector<std::uint8_t> png;
+  if (!cv::imencode(".png", bgra, png)) png.clear();
+  return png;
+}
+
+// /coverage.png: the cameras' coverage as `occmap coverage` colours it, one pixel per cell, +y up.
+std::vector<std::uint8_t> coveragePicture(int map_width, int map_height,
+                                          std::span<const std::uint32_t> seen_by,
+                                          std::size_t cameras) {
+  MapGeometry geometry;
+  geometry.width = map_width;
+  geometry.height = map_height;
+  std::vector<std::uint8_t> png;
+  if (!cv::imencode(".png", coverageCells(geometry, seen_by, cameras), png)) png.clear();
+  return png;
+}
+
 int run(const WebOptions& o) {
   std::string error;
   const std::optional<web::ListenAddress> listen = web::parseListenAddress(o.listen, error);
@@ -62,7 +86,7 @@ int run(const WebOptions& o) {
       {"lcm_url", o.lcm_url}, {"map_channel", o.map_channel}, {"status_channel", o.status_channel}};
   const std::string members = hello.dump(-1, ' ', true);
   server_options.hello_members = members.substr(1, members.size() - 2);  // without the braces
-  web::WebServer server(state, mapPicture, server_options);
+  web::WebServer server(state, {mapPicture, rgbaPicture, coveragePicture}, server_options);
   try {
     server.listen();
   } catch (const std::exception& e) {
@@ -116,12 +140,15 @@ Command addWebCommand(CLI::App& app) {
       "state, frame rate, frames dropped, why it is down or degraded (lit or turned beyond its "
       "background, moved), and its last error. The page follows the maps at their rate, or as "
       "fast as the browser draws (always the newest), and reconnects by itself when this server "
-      "or the daemon goes away and comes back. Camera pictures and the coverage picture are not "
-      "shown yet.\n"
+      "or the daemon goes away and comes back. Each camera's picture (a preview the daemons "
+      "send while a page is open) shows the pixels it finds changed in red; the pointer over it "
+      "highlights the cells it decides on the map; a switch shows the coverage picture.\n"
       "For programs: GET /api/status (a JSON array, one object per daemon heard in the last 3 s, "
       "each as `occmap status --json` prints it), /api/tracks and /api/zones (the newest "
       "tracks_t and zones_t as JSON, or null), /map.png (the newest map as a floor plan; "
-      "/map.png?seq=N a map of the last 30), /api/web (this server's clients and counts).\n"
+      "/map.png?seq=N a map of the last 30), /coverage.png, /camera/HOST/CAMERA.jpg, "
+      "/camera/HOST/CAMERA/changed.png and /camera/HOST/CAMERA/cells.png, /api/web (this "
+      "server's clients and counts).\n"
       "It is read-only: it answers GET and HEAD and changes nothing in any daemon. It listens on "
       "the loopback unless --listen says otherwise; beyond it, anyone who reaches the port sees "
       "the map and "

@@ -9,6 +9,7 @@
 
 #include "base/clock.h"
 #include "transport/bus.h"
+#include "transport/camera_preview_message.h"
 #include "transport/control_message.h"
 #include "transport/footprints_message.h"
 #include "transport/merge_status_message.h"
@@ -139,6 +140,9 @@ std::string BusFeed::open() {
                  self->state_.putTracks(std::make_shared<const std::string>(tracksJson(t)));
                  self->tracks_.keep(std::move(t));
                })},
+      {cameraPreviewChannel(status),
+       decoded(decodeCameraPreview,
+               [](BusFeed* self, occmap::camera_preview_t&& p) { self->onPreview(p); })},
   };
   for (const auto& [channel, take] : subscriptions) {
     if (!subscribe(channel, take)) return "cannot subscribe to " + channel;
@@ -169,6 +173,13 @@ void BusFeed::run() {
       last_request_ns_ = now;
       prompt_request_ = false;
       next_request_ns_ = now + interval_ns;
+    }
+    if (state_.viewers() == 0) {
+      next_preview_request_ns_ = 0;
+    } else if (now >= next_preview_request_ns_) {
+      requestPreviews();
+      next_preview_request_ns_ =
+          now + static_cast<std::int64_t>(options_.preview_request_interval_s * 1e9);
     }
     std::int64_t wait_ns = std::min<std::int64_t>(next_request_ns_ - now, 100'000'000);
     if (prompt_request_) wait_ns = std::min(wait_ns, last_request_ns_ + kPromptRequestGapNs - now);
@@ -283,6 +294,36 @@ void BusFeed::requestStatus() {
   request.encode(request_bytes_.data(), 0, static_cast<int>(request_bytes_.size()));
   if (!bus_->publish(statusRequestChannel(options_.status_channel), request_bytes_)) {
     refuse(statusRequestChannel(options_.status_channel), "the status request could not be sent");
+  }
+}
+
+void BusFeed::onPreview(const occmap::camera_preview_t& preview) {
+  auto held = std::make_shared<HeldPreview>();
+  std::string error;
+  std::optional<std::vector<std::uint8_t>> coverage = previewCoverage(preview, &error);
+  if (!coverage) {
+    refuse(cameraPreviewChannel(options_.status_channel), error);
+    return;
+  }
+  held->hostname = preview.hostname;
+  held->camera = preview.camera;
+  held->utime = preview.utime;
+  held->sequence = preview.sequence;
+  held->width = preview.width;
+  held->height = preview.height;
+  held->jpeg.assign(preview.jpeg.begin(), preview.jpeg.end());
+  held->changed = previewChangedPixels(preview);
+  held->map_width = preview.map_width;
+  held->map_height = preview.map_height;
+  held->coverage = std::move(*coverage);
+  held->heard_ns = monotonicNanoseconds();
+  state_.putPreview(std::move(held));
+}
+
+void BusFeed::requestPreviews() {
+  const std::string channel = cameraPreviewRequestChannel(options_.status_channel);
+  if (!bus_->publish(channel, encodeCameraPreviewRequest(hostTimeMicroseconds(), ""))) {
+    refuse(channel, "the preview request could not be sent");
   }
 }
 

@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include <occmap/camera_preview_t.hpp>
 #include <occmap/control_status_t.hpp>
 #include <occmap/lighting_status_t.hpp>
 #include <occmap/merge_status_t.hpp>
@@ -35,6 +36,10 @@ struct BusFeedOptions {
   std::string map_channel;  // maps; tiles, zones and tracks on its name + _TILES, _ZONES, _TRACKS
   std::string status_channel;  // status_t; requests, companions and merge nodes on its name + …
   double status_request_interval_s = 1.0;
+  // While a browser watches (LiveState::viewers), previews of every camera are asked for this
+  // often: occmapd sends them for 10 s after the last request, so they stop within about 10 s of
+  // the last browser leaving.
+  double preview_request_interval_s = 3.0;
 };
 
 class BusFeed {
@@ -68,11 +73,13 @@ class BusFeed {
   void onMap(const DecodedMap& map, std::int64_t recv_utime);
   void onStatus(occmap::status_t&& status);
   void onMergeStatus(occmap::merge_status_t&& status);
+  void onPreview(const occmap::camera_preview_t& preview);
   // A companion (control, lighting, view) or the zones or tracks of `hostname` came: its daemons'
   // JSON is made again.
   void refreshHost(const std::string& hostname);
   void publishDaemon(std::size_t index);
   void requestStatus();
+  void requestPreviews();
   void refuse(const std::string& channel, const std::string& why);
 
   BusFeedOptions options_;
@@ -101,6 +108,7 @@ class BusFeed {
   std::int64_t next_request_ns_ = 0;
   std::int64_t last_request_ns_ = 0;
   bool prompt_request_ = false;
+  std::int64_t next_preview_request_ns_ = 0;  // 0: none asked for (no browser watching)
   std::vector<std::uint8_t> request_bytes_;
 };
 

@@ -164,26 +164,37 @@ void HttpSession::answer(const Request& request) {
                                 "text/plain; charset=utf-8",
                                 "/map.png takes one parameter, seq=N (a map's number)\n"));
     }
-    hub_.drawPicture(seq, [self = shared_from_this(), version, keep_alive,
-                           head](PictureResult picture) {
-      Response response = picture.status == http::status::ok
-                              ? makeResponse(http::status::ok, version, keep_alive, "image/png",
-                                             std::string(picture.png->begin(), picture.png->end()))
-                              : makeResponse(picture.status, version, keep_alive,
-                                             "text/plain; charset=utf-8", std::move(picture.error));
-      if (picture.status == http::status::ok) {
-        response.set("X-Map-Seq", std::to_string(picture.seq));
-      } else {
-        ++self->hub_.refused_requests;
-      }
-      if (head) {
-        const std::size_t length = response.body().size();
-        response.body().clear();
-        response.content_length(length);
-      }
-      self->send(std::move(response), !keep_alive);
-    });
+    hub_.drawPicture(seq, pictureAnswer(version, keep_alive, head, true));
     return;
+  }
+  if (path == "/coverage.png") {
+    hub_.drawCoverage(pictureAnswer(version, keep_alive, head, false));
+    return;
+  }
+  if (path.starts_with("/camera/")) {
+    CameraPathError error = CameraPathError::kNotACameraPath;
+    const std::optional<CameraPath> camera = parseCameraPath(path, error);
+    if (!camera) {
+      return reply(makeResponse(
+          error == CameraPathError::kBadName ? http::status::bad_request : http::status::not_found,
+          version, keep_alive, "text/plain; charset=utf-8",
+          "a camera's pictures are /camera/HOST/CAMERA.jpg, /camera/HOST/CAMERA/changed.png and "
+          "/camera/HOST/CAMERA/cells.png, each name percent-encoded\n"));
+    }
+    if (camera->picture != CameraPath::Picture::kFrame) {
+      hub_.drawCameraPicture(*camera, pictureAnswer(version, keep_alive, head, false));
+      return;
+    }
+    // The frame: the daemon's JPEG as it came.
+    const auto preview = hub_.state().preview(camera->hostname, camera->camera);
+    if (!preview) {
+      return reply(makeResponse(http::status::not_found, version, keep_alive,
+                                "text/plain; charset=utf-8", "no preview of that camera heard\n"));
+    }
+    Response response = makeResponse(http::status::ok, version, keep_alive, "image/jpeg",
+                                     std::string(preview->jpeg.begin(), preview->jpeg.end()));
+    response.set("X-Preview-Utime", std::to_string(preview->utime));
+    return reply(std::move(response));
   }
   if (path == "/ws") {
     return reply(makeResponse(http::status::upgrade_required, version, keep_alive,
@@ -196,8 +207,8 @@ void HttpSession::answer(const Request& request) {
                               std::string(asset->bytes.begin(), asset->bytes.end()), "no-cache"));
   }
   reply(makeResponse(http::status::not_found, version, keep_alive, "text/plain; charset=utf-8",
-                     "no such page: try /, /api/status, /api/tracks, /api/zones, /api/web or "
-                     "/map.png\n"));
+                     "no such page: try /, /api/status, /api/tracks, /api/zones, /api/web, "
+                     "/map.png, /coverage.png or /camera/HOST/CAMERA.jpg\n"));
 }
 
 void HttpSession::upgrade(Request&& request) {
@@ -222,6 +233,28 @@ void HttpSession::upgrade(Request&& request) {
   stream_.expires_never();  // the WebSocket keeps its own timeouts
   std::make_shared<WebSocketSession>(std::move(stream_), hub_, std::move(slot_))
       ->start(std::move(request));
+}
+
+std::function<void(PictureResult)> HttpSession::pictureAnswer(unsigned version, bool keep_alive,
+                                                              bool head, bool map_seq) {
+  return [self = shared_from_this(), version, keep_alive, head, map_seq](PictureResult picture) {
+    Response response = picture.status == http::status::ok
+                            ? makeResponse(http::status::ok, version, keep_alive, "image/png",
+                                           std::string(picture.png->begin(), picture.png->end()))
+                            : makeResponse(picture.status, version, keep_alive,
+                                           "text/plain; charset=utf-8", std::move(picture.error));
+    if (picture.status != http::status::ok) {
+      ++self->hub_.refused_requests;
+    } else if (map_seq) {
+      response.set("X-Map-Seq", std::to_string(picture.seq));
+    }
+    if (head) {
+      const std::size_t length = response.body().size();
+      response.body().clear();
+      response.content_length(length);
+    }
+    self->send(std::move(response), !keep_alive);
+  };
 }
 
 void HttpSession::send(Response&& response, bool close) {

@@ -58,6 +58,28 @@ void LiveState::putTracks(SharedText json) {
   changed();
 }
 
+void LiveState::putPreview(std::shared_ptr<const HeldPreview> preview) {
+  {
+    const std::lock_guard lock(mutex_);
+    ++counters_.previews;
+    std::erase_if(previews_, [&](const std::shared_ptr<const HeldPreview>& p) {
+      return preview->heard_ns - p->heard_ns > kForgetDaemonNs;
+    });
+    const auto same = std::find_if(previews_.begin(), previews_.end(), [&](const auto& p) {
+      return p->hostname == preview->hostname && p->camera == preview->camera;
+    });
+    if (same != previews_.end()) {
+      *same = std::move(preview);
+    } else if (previews_.size() < kMaxPreviews) {
+      previews_.push_back(std::move(preview));
+    } else {
+      return;
+    }
+    ++generations_.previews;
+  }
+  changed();
+}
+
 void LiveState::countRefused(std::string what) {
   const std::lock_guard lock(mutex_);
   ++counters_.refused;
@@ -111,6 +133,29 @@ SharedText LiveState::zones() const {
 SharedText LiveState::tracks() const {
   const std::lock_guard lock(mutex_);
   return tracks_;
+}
+
+std::shared_ptr<const HeldPreview> LiveState::preview(const std::string& hostname,
+                                                      const std::string& camera) const {
+  const std::lock_guard lock(mutex_);
+  for (const auto& p : previews_) {
+    if (p->hostname == hostname && p->camera == camera) return p;
+  }
+  return nullptr;
+}
+
+std::vector<std::shared_ptr<const HeldPreview>> LiveState::previews(std::int64_t now_ns) const {
+  std::vector<std::shared_ptr<const HeldPreview>> heard;
+  {
+    const std::lock_guard lock(mutex_);
+    for (const auto& p : previews_) {
+      if (now_ns - p->heard_ns <= kForgetDaemonNs) heard.push_back(p);
+    }
+  }
+  std::sort(heard.begin(), heard.end(), [](const auto& a, const auto& b) {
+    return std::tie(a->hostname, a->camera) < std::tie(b->hostname, b->camera);
+  });
+  return heard;
 }
 
 LiveCounters LiveState::counters() const {

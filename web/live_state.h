@@ -6,6 +6,7 @@
 // what is handed out is shared and immutable, so that a reader holds no lock while it sends, and a
 // put never waits for a reader.
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -45,12 +46,32 @@ struct DaemonHeard {
   }
 };
 
+// A camera's newest preview (camera_preview_t, docs/daemon.md "Camera previews"), unpacked once
+// on the LCM thread: what /camera/HOST/CAMERA.jpg, …/changed.png, …/cells.png and /coverage.png
+// are made of.
+struct HeldPreview {
+  std::string hostname;
+  std::string camera;
+  std::int64_t utime = 0;  // capture time of the frame shown, us since the Unix epoch
+  std::int64_t sequence = 0;
+  int width = 0;  // the preview's size, pixels
+  int height = 0;
+  std::vector<std::uint8_t> jpeg;  // as the daemon sent it
+  // One byte per preview pixel, row-major from the top: 1 changed.
+  std::vector<std::uint8_t> changed;
+  int map_width = 0;
+  int map_height = 0;
+  std::vector<std::uint8_t> coverage;  // one byte per map cell, row-major from row 0; 1 decided
+  std::int64_t heard_ns = 0;           // CLOCK_MONOTONIC when it came
+};
+
 // A change counter per kind: a reader that kept the last it saw knows what is new.
 struct LiveGenerations {
   std::uint64_t map = 0;
   std::uint64_t daemons = 0;
   std::uint64_t zones = 0;
   std::uint64_t tracks = 0;
+  std::uint64_t previews = 0;
 };
 
 // What was heard, counted since the start.
@@ -59,6 +80,7 @@ struct LiveCounters {
   std::uint64_t statuses = 0;
   std::uint64_t zones = 0;
   std::uint64_t tracks = 0;
+  std::uint64_t previews = 0;
   std::uint64_t refused = 0;  // messages that did not decode, on any channel
   std::string last_refusal;   // "CHANNEL: why"
 };
@@ -71,6 +93,8 @@ class LiveState {
   static constexpr std::size_t kMaxDaemons = 64;
   // A daemon not heard for this long is forgotten.
   static constexpr std::int64_t kForgetDaemonNs = 60'000'000'000;
+  // The most cameras whose previews are held; a preview older than kForgetDaemonNs is forgotten.
+  static constexpr std::size_t kMaxPreviews = 256;
 
   LiveState() = default;
   LiveState(const LiveState&) = delete;
@@ -86,6 +110,8 @@ class LiveState {
   void putDaemon(DaemonHeard daemon);
   void putZones(SharedText json);
   void putTracks(SharedText json);
+  // Replaces the preview of the same host and camera, or adds it.
+  void putPreview(std::shared_ptr<const HeldPreview> preview);
   void countRefused(std::string what);
 
   // Any thread.
@@ -99,7 +125,17 @@ class LiveState {
   std::vector<DaemonHeard> daemons(std::int64_t now_ns) const;
   SharedText zones() const;
   SharedText tracks() const;
+  // The newest preview of `camera` on `hostname`, or nullptr.
+  std::shared_ptr<const HeldPreview> preview(const std::string& hostname,
+                                             const std::string& camera) const;
+  // Every camera's newest preview heard within kForgetDaemonNs of `now_ns`, sorted by host, then
+  // camera.
+  std::vector<std::shared_ptr<const HeldPreview>> previews(std::int64_t now_ns) const;
   LiveCounters counters() const;
+
+  // Browsers watching (the server's count): while there is one, the bus feed asks for previews.
+  void setViewers(std::size_t viewers) { viewers_.store(viewers, std::memory_order_relaxed); }
+  std::size_t viewers() const { return viewers_.load(std::memory_order_relaxed); }
 
  private:
   void changed() const {
@@ -115,6 +151,8 @@ class LiveState {
   std::vector<DaemonHeard> daemons_;
   SharedText zones_;
   SharedText tracks_;
+  std::vector<std::shared_ptr<const HeldPreview>> previews_;
+  std::atomic<std::size_t> viewers_{0};
 };
 
 }  // namespace occmap::web

@@ -24,6 +24,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 
+#include "web/camera_path.h"
 #include "web/live_state.h"
 #include "web/web_server.h"
 
@@ -58,7 +59,7 @@ class ConnectionSlot {
   std::size_t* count_;
 };
 
-// A drawn /map.png, or why there is none.
+// A drawn picture (/map.png, a camera's overlay, /coverage.png), or why there is none.
 struct PictureResult {
   http::status status = http::status::ok;
   SharedBytes png;
@@ -68,13 +69,13 @@ struct PictureResult {
 
 // The kinds of text message a WebSocket client is sent, each in a slot of its own (the newest
 // replaces one not yet written), written in this order before a waiting map.
-enum class TextKind : std::size_t { kHello, kDaemons, kZones, kTracks, kCount };
+enum class TextKind : std::size_t { kHello, kDaemons, kZones, kTracks, kPreviews, kCount };
 
 // What every connection shares: the state, the options, the WebSocket clients, the picture
 // thread, and the counts of /api/web.
 class Hub {
  public:
-  Hub(LiveState& state, MapPicture picture, WebServerOptions options);
+  Hub(LiveState& state, PictureDrawers pictures, WebServerOptions options);
   ~Hub();
   Hub(const Hub&) = delete;
   Hub& operator=(const Hub&) = delete;
@@ -109,6 +110,11 @@ class Hub {
   // Draws the map numbered `seq` (the newest without one) on the picture thread; `done` runs on
   // the network thread. A busy picture thread answers 503 at once.
   void drawPicture(std::optional<std::int64_t> seq, std::function<void(PictureResult)> done);
+  // A camera's changed pixels (RGBA over its frame) or cells (RGBA at the map's size, +y up), on
+  // the picture thread; 404 for a camera whose preview is not held.
+  void drawCameraPicture(const CameraPath& path, std::function<void(PictureResult)> done);
+  // The coverage picture of every camera's preview, on the picture thread; 404 before any.
+  void drawCoverage(std::function<void(PictureResult)> done);
 
   // Counted for /api/web.
   std::uint64_t requests = 0;
@@ -124,11 +130,16 @@ class Hub {
   void tick();
   SharedText helloMessage() const;
   SharedText daemonsMessage() const;
+  SharedText previewsMessage() const;
+  // Runs `draw` on the picture thread (503 at once when too many wait) and `done` with its PNG on
+  // the network thread (500 when it drew nothing).
+  void onPictureThread(std::function<SharedBytes()> draw, std::int64_t seq,
+                       std::function<void(PictureResult)> done);
   SharedText wrapped(const char* type, const SharedText& json) const;
   SharedBytes pictureOf(const std::shared_ptr<const HeldMap>& map);
 
   LiveState& state_;
-  MapPicture picture_;
+  PictureDrawers pictures_drawers_;
   WebServerOptions options_;
   std::uint16_t port_ = 0;
   std::size_t connections_ = 0;
@@ -169,6 +180,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void answer(const Request& request);
   void upgrade(Request&& request);
   void send(Response&& response, bool close);
+  // Answers with a PNG drawn on the picture thread (or its error); `map_seq`: with X-Map-Seq.
+  std::function<void(PictureResult)> pictureAnswer(unsigned version, bool keep_alive, bool head,
+                                                   bool map_seq);
   void refuse(http::status status, std::string why, unsigned version, bool keep_alive);
   void drainThenClose();
 

@@ -45,8 +45,8 @@ std::string_view hostOnly(std::string_view host) {
 
 }  // namespace
 
-Hub::Hub(LiveState& state, MapPicture picture, WebServerOptions options)
-    : state_(state), picture_(std::move(picture)), options_(std::move(options)) {}
+Hub::Hub(LiveState& state, PictureDrawers pictures, WebServerOptions options)
+    : state_(state), pictures_drawers_(std::move(pictures)), options_(std::move(options)) {}
 
 Hub::~Hub() { stop(); }
 
@@ -120,6 +120,7 @@ void Hub::accept() {
 
 void Hub::join(WebSocketSession* client) {
   clients_.insert(client);
+  state_.setViewers(clients_.size());
   client->offerText(TextKind::kHello, helloMessage());
   client->offerText(TextKind::kDaemons, daemonsMessage());
   if (SharedText zones = state_.zones()) {
@@ -128,10 +129,14 @@ void Hub::join(WebSocketSession* client) {
   if (SharedText tracks = state_.tracks()) {
     client->offerText(TextKind::kTracks, wrapped("tracks", tracks));
   }
+  client->offerText(TextKind::kPreviews, previewsMessage());
   if (SharedBytes map = state_.newestMapFrame()) client->offerMap(map);
 }
 
-void Hub::leave(WebSocketSession* client) { clients_.erase(client); }
+void Hub::leave(WebSocketSession* client) {
+  clients_.erase(client);
+  state_.setViewers(clients_.size());
+}
 
 void Hub::distribute() {
   const LiveGenerations now = state_.generations();
@@ -149,6 +154,11 @@ void Hub::distribute() {
     seen_.tracks = now.tracks;
     const SharedText tracks = wrapped("tracks", state_.tracks());
     for (WebSocketSession* client : clients_) client->offerText(TextKind::kTracks, tracks);
+  }
+  if (now.previews != seen_.previews) {
+    seen_.previews = now.previews;
+    const SharedText previews = previewsMessage();
+    for (WebSocketSession* client : clients_) client->offerText(TextKind::kPreviews, previews);
   }
   if (now.daemons != seen_.daemons) {
     seen_.daemons = now.daemons;
@@ -206,6 +216,24 @@ SharedText Hub::daemonsMessage() const {
   return std::make_shared<const std::string>(std::move(text));
 }
 
+SharedText Hub::previewsMessage() const {
+  // The page learns which cameras have a new preview (and so new pictures) from `utime`.
+  nlohmann::ordered_json previews = nlohmann::ordered_json::array();
+  for (const auto& p : state_.previews(monotonicNanoseconds())) {
+    previews.push_back(nlohmann::ordered_json{{"hostname", p->hostname},
+                                              {"camera", p->camera},
+                                              {"utime", p->utime},
+                                              {"sequence", p->sequence},
+                                              {"width", p->width},
+                                              {"height", p->height},
+                                              {"map_width", p->map_width},
+                                              {"map_height", p->map_height}});
+  }
+  const nlohmann::ordered_json message = {{"type", "previews"}, {"previews", previews}};
+  return std::make_shared<const std::string>(
+      message.dump(-1, ' ', true, nlohmann::ordered_json::error_handler_t::replace));
+}
+
 SharedText Hub::wrapped(const char* type, const SharedText& json) const {
   return std::make_shared<const std::string>(std::string("{\"type\":\"") + type + "\",\"" + type +
                                              "\":" + (json ? *json : "null") + "}");
@@ -248,6 +276,7 @@ std::string Hub::webJson() const {
       {"statuses_heard", heard.statuses},
       {"zones_heard", heard.zones},
       {"tracks_heard", heard.tracks},
+      {"previews_heard", heard.previews},
       {"refused_messages", heard.refused},
       {"last_refusal", heard.last_refusal},
       {"connections", connections_},
@@ -284,29 +313,112 @@ void Hub::drawPicture(std::optional<std::int64_t> seq, std::function<void(Pictur
     done(std::move(none));
     return;
   }
+  onPictureThread([this, map] { return pictureOf(map); }, map->seq, std::move(done));
+}
+
+void Hub::onPictureThread(std::function<SharedBytes()> draw, std::int64_t seq,
+                          std::function<void(PictureResult)> done) {
   if (pictures_waiting_ >= kMaxPicturesWaiting) {
-    done({http::status::service_unavailable, nullptr, 0, "busy drawing maps: try again\n"});
+    done({http::status::service_unavailable, nullptr, 0, "busy drawing pictures: try again\n"});
     return;
   }
   ++pictures_waiting_;
-  asio::post(pictures_, [this, map, done = std::move(done)]() mutable {
-    SharedBytes png = pictureOf(map);
-    asio::post(io_, [this, map, png, done = std::move(done)] {
+  asio::post(pictures_, [this, seq, draw = std::move(draw), done = std::move(done)]() mutable {
+    SharedBytes png = draw();
+    asio::post(io_, [this, seq, png, done = std::move(done)] {
       --pictures_waiting_;
-      if (png->empty()) {
-        done({http::status::internal_server_error, nullptr, map->seq,
-              "the map could not be drawn\n"});
+      if (!png || png->empty()) {
+        done({http::status::internal_server_error, nullptr, seq,
+              "the picture could not be drawn\n"});
       } else {
-        done({http::status::ok, png, map->seq, ""});
+        done({http::status::ok, png, seq, ""});
       }
     });
   });
 }
 
+void Hub::drawCameraPicture(const CameraPath& path, std::function<void(PictureResult)> done) {
+  std::shared_ptr<const HeldPreview> preview = state_.preview(path.hostname, path.camera);
+  if (!preview) {
+    done({http::status::not_found, nullptr, 0, "no preview of that camera heard\n"});
+    return;
+  }
+  const bool cells = path.picture == CameraPath::Picture::kCells;
+  onPictureThread(
+      [this, preview, cells] {
+        // Changed pixels: red, two thirds opaque, over the frame. Cells: a light blue, opaque,
+        // at the map's size with map row 0 at the bottom (+y up, as /map.png).
+        const int width = cells ? preview->map_width : preview->width;
+        const int height = cells ? preview->map_height : preview->height;
+        const std::vector<std::uint8_t>& bits = cells ? preview->coverage : preview->changed;
+        std::vector<std::uint8_t> rgba(
+            static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 4, 0);
+        for (int y = 0; y < height; ++y) {
+          const int source_row = cells ? height - 1 - y : y;
+          for (int x = 0; x < width; ++x) {
+            const std::size_t from =
+                static_cast<std::size_t>(source_row) * static_cast<std::size_t>(width) +
+                static_cast<std::size_t>(x);
+            if (from >= bits.size() || bits[from] == 0) continue;
+            std::uint8_t* to =
+                &rgba[(static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+                       static_cast<std::size_t>(x)) *
+                      4];
+            if (cells) {
+              to[0] = 40, to[1] = 170, to[2] = 255, to[3] = 255;
+            } else {
+              to[0] = 255, to[1] = 30, to[2] = 30, to[3] = 170;
+            }
+          }
+        }
+        return std::make_shared<const std::vector<std::uint8_t>>(
+            pictures_drawers_.rgba(width, height, rgba));
+      },
+      preview->sequence, std::move(done));
+}
+
+void Hub::drawCoverage(std::function<void(PictureResult)> done) {
+  std::vector<std::shared_ptr<const HeldPreview>> previews =
+      state_.previews(monotonicNanoseconds());
+  // The map's size: the newest map's, or the first preview's before any map; previews of
+  // another size (another daemon's map) are left out, and at most 32 cameras drawn.
+  int width = 0, height = 0;
+  if (const std::shared_ptr<const HeldMap> map = state_.newestMap()) {
+    width = map->map.geometry.width;
+    height = map->map.geometry.height;
+  } else if (!previews.empty()) {
+    width = previews.front()->map_width;
+    height = previews.front()->map_height;
+  }
+  std::erase_if(previews,
+                [&](const auto& p) { return p->map_width != width || p->map_height != height; });
+  if (previews.size() > 32) previews.resize(32);
+  if (previews.empty()) {
+    done({http::status::not_found, nullptr, 0,
+          "no camera preview heard yet (is occmapd running? previews come while a page is "
+          "open)\n"});
+    return;
+  }
+  onPictureThread(
+      [this, previews, width, height] {
+        std::vector<std::uint32_t> seen_by(
+            static_cast<std::size_t>(width) * static_cast<std::size_t>(height), 0);
+        for (std::size_t k = 0; k < previews.size(); ++k) {
+          const std::vector<std::uint8_t>& coverage = previews[k]->coverage;
+          for (std::size_t cell = 0; cell < seen_by.size() && cell < coverage.size(); ++cell) {
+            if (coverage[cell] != 0) seen_by[cell] |= 1u << k;
+          }
+        }
+        return std::make_shared<const std::vector<std::uint8_t>>(
+            pictures_drawers_.coverage(width, height, seen_by, previews.size()));
+      },
+      0, std::move(done));
+}
+
 SharedBytes Hub::pictureOf(const std::shared_ptr<const HeldMap>& map) {
   // The picture thread's: many asking for the newest map cost one drawing.
   if (map != pictured_map_ || !pictured_png_) {
-    pictured_png_ = std::make_shared<const std::vector<std::uint8_t>>(picture_(*map));
+    pictured_png_ = std::make_shared<const std::vector<std::uint8_t>>(pictures_drawers_.map(*map));
     pictured_map_ = map;
   }
   return pictured_png_;
@@ -314,12 +426,12 @@ SharedBytes Hub::pictureOf(const std::shared_ptr<const HeldMap>& map) {
 
 struct WebServer::Impl {
   Hub hub;
-  Impl(LiveState& state, MapPicture picture, WebServerOptions options)
-      : hub(state, std::move(picture), std::move(options)) {}
+  Impl(LiveState& state, PictureDrawers pictures, WebServerOptions options)
+      : hub(state, std::move(pictures), std::move(options)) {}
 };
 
-WebServer::WebServer(LiveState& state, MapPicture picture, WebServerOptions options)
-    : impl_(std::make_unique<Impl>(state, std::move(picture), std::move(options))) {}
+WebServer::WebServer(LiveState& state, PictureDrawers pictures, WebServerOptions options)
+    : impl_(std::make_unique<Impl>(state, std::move(pictures), std::move(options))) {}
 
 WebServer::~WebServer() { stop(); }
 

@@ -1,6 +1,7 @@
 // occmap web: the live page (docs/web.md). One WebSocket to the server that served this page:
 // binary messages are maps (the newest is drawn at the next animation frame, older ones that
-// arrive meanwhile are dropped), text messages are JSON: "hello", "daemons", "zones", "tracks".
+// arrive meanwhile are dropped), text messages are JSON: "hello", "daemons", "zones", "tracks",
+// "previews" (which cameras have a new preview: their pictures are fetched again).
 // The page reconnects by itself when the server goes away and comes back, and says when no map
 // has come for a while (the daemon stopped). Everything from the network is shown as text
 // (textContent), never as markup.
@@ -45,7 +46,11 @@
     daemonsDirty: false,
     hello: null,
     cameraCards: '',
+    previews: new Map(),   // "host\ncamera" -> the newest preview's facts (from "previews")
+    previewsDirty: false,
+    highlighted: null,     // [host, camera] whose cells are drawn over the map
   };
+  const COVERAGE_REFRESH_MS = 5000;
 
   // ---- numbers and text -------------------------------------------------------------------
 
@@ -175,6 +180,15 @@
       case 'tracks':
         takeTracks(message.tracks);
         page.overlayDirty = page.listsDirty = true;
+        break;
+      case 'previews':
+        page.previews = new Map();
+        for (const p of Array.isArray(message.previews) ? message.previews : []) {
+          if (p && typeof p.hostname === 'string' && typeof p.camera === 'string') {
+            page.previews.set(p.hostname + '\n' + p.camera, p);
+          }
+        }
+        page.previewsDirty = true;
         break;
     }
   }
@@ -533,8 +547,12 @@
     renderCameraCards(cameras);
   }
 
-  // Phase 2 (issue 17) puts each camera's picture here, with the pixels it finds changed; until
-  // the daemon publishes previews, a card per camera says there is none.
+  // A camera's pictures on this server (names percent-encoded: the server decodes and checks them).
+  const cameraUrl = (host, name, what) =>
+    '/camera/' + encodeURIComponent(host) + '/' + encodeURIComponent(name) + what;
+
+  // A card per camera: its picture, the pixels it finds changed over it in red (both fetched again
+  // when a newer preview comes), and, under the pointer, the cells it decides drawn on the map.
   function renderCameraCards(cameras) {
     const key = JSON.stringify(cameras);
     if (key === page.cameraCards) return;
@@ -543,16 +561,83 @@
       const card = element('div', null, 'camera-card');
       card.dataset.host = host;
       card.dataset.camera = name;
-      card.append(element('div', name, 'name'), element('div', host, 'quiet'),
-          element('p', 'no preview yet', 'quiet'));
+      const view = element('div', null, 'view');
+      const picture = element('img', null, 'frame');
+      picture.alt = 'camera ' + name + ' on ' + host;
+      const changed = element('img', null, 'changed');
+      changed.alt = '';
+      picture.addEventListener('load', () => {
+        view.dataset.loaded = 'yes';
+        card.dataset.preview = 'yes';
+      });
+      view.append(picture, changed);
+      card.append(element('div', name, 'name'), element('div', host, 'quiet'), view,
+          element('p', 'no preview yet', 'quiet no-preview'));
+      card.addEventListener('mouseenter', () => highlight(host, name));
+      card.addEventListener('mouseleave', () => highlight(null, null));
       return card;
     });
-    if (!cards.length) {
-      cards.push(element('p', 'no preview yet: camera pictures (with the pixels each finds changed) ' +
-          'and the coverage picture come with the daemon\'s preview messages (phase 2)', 'quiet'));
-    }
+    if (!cards.length) cards.push(element('p', 'no camera heard yet', 'quiet'));
     $('camera-views').replaceChildren(...cards);
+    page.previewsDirty = true;
   }
+
+  // Each card's pictures fetched again when its camera's preview is newer than the one shown.
+  function renderPreviews() {
+    for (const card of $('camera-views').querySelectorAll('.camera-card')) {
+      const preview = page.previews.get(card.dataset.host + '\n' + card.dataset.camera);
+      if (!preview || String(preview.utime) === card.dataset.previewUtime) continue;
+      card.dataset.previewUtime = String(preview.utime);
+      const query = '?u=' + encodeURIComponent(String(preview.utime));
+      card.querySelector('img.frame').src = cameraUrl(card.dataset.host, card.dataset.camera, '.jpg') + query;
+      card.querySelector('img.changed').src =
+          cameraUrl(card.dataset.host, card.dataset.camera, '/changed.png') + query;
+    }
+  }
+
+  // The cells a camera decides, over the map (a map-sized picture, +y up as the map), or none.
+  function highlight(host, name) {
+    const cells = $('cells');
+    for (const card of $('camera-views').querySelectorAll('.camera-card')) {
+      if (card.dataset.host === host && card.dataset.camera === name) {
+        card.dataset.highlighted = 'yes';
+      } else {
+        delete card.dataset.highlighted;
+      }
+    }
+    if (host === null) {
+      page.highlighted = null;
+      cells.hidden = true;
+      delete document.body.dataset.highlighted;
+      return;
+    }
+    page.highlighted = [host, name];
+    document.body.dataset.highlighted = host + '/' + name;
+    cells.onload = () => {
+      if (page.highlighted && page.highlighted[0] === host && page.highlighted[1] === name) {
+        cells.hidden = false;
+      }
+    };
+    cells.src = cameraUrl(host, name, '/cells.png');
+  }
+
+  // The coverage picture over the map while the switch is on, fetched again every few seconds.
+  let coverageTimer = 0;
+  function showCoverage() {
+    const coverage = $('coverage');
+    clearInterval(coverageTimer);
+    if (!$('show-coverage').checked) {
+      coverage.hidden = true;
+      document.body.dataset.coverage = 'no';
+      return;
+    }
+    document.body.dataset.coverage = 'yes';
+    const load = () => { coverage.src = '/coverage.png?t=' + Date.now(); };
+    coverage.onload = () => { coverage.hidden = !$('show-coverage').checked; };
+    load();
+    coverageTimer = setInterval(load, COVERAGE_REFRESH_MS);
+  }
+  $('show-coverage').addEventListener('change', showCoverage);
 
   // ---- the frame loop ---------------------------------------------------------------------
 
@@ -572,6 +657,10 @@
     if (page.daemonsDirty) {
       page.daemonsDirty = false;
       renderDaemons();
+    }
+    if (page.previewsDirty) {
+      page.previewsDirty = false;
+      renderPreviews();
     }
     // Tables of zones and tracks a few times a second: text changing at 30 Hz cannot be read.
     if (page.listsDirty && now - listsAt > 250) {
