@@ -160,52 +160,64 @@ std::string clockOffsetText(double ms) {
   return formatText("%+.1f ms", ms);
 }
 
+// The zones of a zones_t, as an array of objects: every field by its LCM name, the state also by
+// name.
+nlohmann::ordered_json zonesArrayJson(const occmap::zones_t& z) {
+  nlohmann::ordered_json zones = nlohmann::ordered_json::array();
+  for (const occmap::zone_t& zone : z.zones) {
+    zones.push_back(nlohmann::ordered_json{
+        {"name", zone.name},
+        {"state", std::int64_t{zone.state}},
+        {"state_name", zoneStateText(zone.state)},
+        {"state_s", zone.state_s},
+        {"cells", zone.cells},
+        {"occupied_cells", zone.occupied_cells},
+        {"unseen_cells", zone.unseen_cells},
+        {"corner_x_m", zone.corner_x_m},
+        {"corner_y_m", zone.corner_y_m},
+    });
+  }
+  return zones;
+}
+
+// A tracks_t as an object: utime, seq, hostname, its footprints and its tracks.
+nlohmann::ordered_json tracksObjectJson(const occmap::tracks_t& t) {
+  nlohmann::ordered_json tracks = {{"utime", t.utime}, {"seq", t.seq}, {"hostname", t.hostname}};
+  nlohmann::ordered_json& found = tracks["footprints"] = nlohmann::ordered_json::array();
+  for (const occmap::footprint_t& f : t.footprints) {
+    found.push_back(nlohmann::ordered_json{{"x_m", f.x_m},
+                                           {"y_m", f.y_m},
+                                           {"area_m2", f.area_m2},
+                                           {"score", f.score},
+                                           {"height_m", f.height_m}});
+  }
+  nlohmann::ordered_json& followed = tracks["tracks"] = nlohmann::ordered_json::array();
+  for (const occmap::track_t& track : t.tracks) {
+    followed.push_back(nlohmann::ordered_json{
+        {"id", track.id},
+        {"x_m", track.x_m},
+        {"y_m", track.y_m},
+        {"vx_m_s", track.vx_m_s},
+        {"vy_m_s", track.vy_m_s},
+        {"area_m2", track.area_m2},
+        {"age_s", track.age_s},
+        {"unseen_s", track.unseen_s},
+    });
+  }
+  return tracks;
+}
+
 // "zones" (an array of zone_t objects, or null when none was heard) and "tracks" (the tracks_t
 // as an object, or null) for formatStatusJson and formatMergeStatusJson.
 void addZonesAndTracksJson(nlohmann::ordered_json& j, const ZonesAndTracks& heard) {
-  nlohmann::ordered_json& zones = j["zones"] = nullptr;
-  if (heard.zones != nullptr) {
-    zones = nlohmann::ordered_json::array();
-    for (const occmap::zone_t& zone : heard.zones->zones) {
-      zones.push_back(nlohmann::ordered_json{
-          {"name", zone.name},
-          {"state", std::int64_t{zone.state}},
-          {"state_name", zoneStateText(zone.state)},
-          {"state_s", zone.state_s},
-          {"cells", zone.cells},
-          {"occupied_cells", zone.occupied_cells},
-          {"unseen_cells", zone.unseen_cells},
-          {"corner_x_m", zone.corner_x_m},
-          {"corner_y_m", zone.corner_y_m},
-      });
-    }
-  }
-  nlohmann::ordered_json& tracks = j["tracks"] = nullptr;
-  if (heard.tracks != nullptr) {
-    const occmap::tracks_t& t = *heard.tracks;
-    tracks = {{"utime", t.utime}, {"seq", t.seq}, {"hostname", t.hostname}};
-    nlohmann::ordered_json& found = tracks["footprints"] = nlohmann::ordered_json::array();
-    for (const occmap::footprint_t& f : t.footprints) {
-      found.push_back(nlohmann::ordered_json{{"x_m", f.x_m},
-                                             {"y_m", f.y_m},
-                                             {"area_m2", f.area_m2},
-                                             {"score", f.score},
-                                             {"height_m", f.height_m}});
-    }
-    nlohmann::ordered_json& followed = tracks["tracks"] = nlohmann::ordered_json::array();
-    for (const occmap::track_t& track : t.tracks) {
-      followed.push_back(nlohmann::ordered_json{
-          {"id", track.id},
-          {"x_m", track.x_m},
-          {"y_m", track.y_m},
-          {"vx_m_s", track.vx_m_s},
-          {"vy_m_s", track.vy_m_s},
-          {"area_m2", track.area_m2},
-          {"age_s", track.age_s},
-          {"unseen_s", track.unseen_s},
-      });
-    }
-  }
+  j["zones"] = heard.zones != nullptr ? zonesArrayJson(*heard.zones) : nullptr;
+  j["tracks"] = heard.tracks != nullptr ? tracksObjectJson(*heard.tracks) : nullptr;
+}
+
+// As every JSON here is printed: ASCII, bytes that are not UTF-8 replaced, NaN and infinities
+// null (nlohmann writes them so).
+std::string dumpStatusJson(const nlohmann::ordered_json& j) {
+  return j.dump(-1, ' ', true, nlohmann::ordered_json::error_handler_t::replace);
 }
 
 }  // namespace
@@ -490,7 +502,7 @@ std::string formatStatusJson(const occmap::status_t& s, const occmap::control_st
   // exception), and ensure_ascii writes every character outside printable ASCII as \uXXXX, so that
   // no control character (C0, DEL, C1) reaches a terminal raw when the JSON is printed on one.
   // Non-finite numbers come out as null.
-  return j.dump(-1, ' ', true, nlohmann::ordered_json::error_handler_t::replace);
+  return dumpStatusJson(j);
 }
 
 std::string mergeInputStateName(int state) {
@@ -631,7 +643,18 @@ std::string formatMergeStatusJson(const occmap::merge_status_t& s, const ZonesAn
   }
   if (heard != nullptr) addZonesAndTracksJson(j, *heard);
   // As formatStatusJson: ASCII only, bytes that are not UTF-8 as U+FFFD, NaN as null.
-  return j.dump(-1, ' ', true, nlohmann::ordered_json::error_handler_t::replace);
+  return dumpStatusJson(j);
+}
+
+std::string formatTracksJson(const occmap::tracks_t& tracks) {
+  return dumpStatusJson(tracksObjectJson(tracks));
+}
+
+std::string formatZonesJson(const occmap::zones_t& zones) {
+  nlohmann::ordered_json j = {
+      {"utime", zones.utime}, {"seq", zones.seq}, {"hostname", zones.hostname}};
+  j["zones"] = zonesArrayJson(zones);
+  return dumpStatusJson(j);
 }
 
 }  // namespace occmap

@@ -122,4 +122,12 @@ std::string daemonStateName(int state);
 // "starting", "streaming", "down"; "state N" otherwise.
 std::string cameraStateName(int state);
 
+// A tracks_t as formatStatusJson's "tracks" holds it: {"utime", "seq", "hostname", "footprints":
+// [{x_m, y_m, area_m2, score, height_m}...], "tracks": [{id, x_m, y_m, vx_m_s, vy_m_s, area_m2,
+// age_s, unseen_s}...]} on one line (GET /api/tracks of occmap web).
+std::string formatTracksJson(const occmap::tracks_t& tracks);
+// A zones_t: {"utime", "seq", "hostname", "zones": [...]}, the zones as formatStatusJson's "zones"
+// holds them (GET /api/zones of occmap web).
+std::string formatZonesJson(const occmap::zones_t& zones);
+
 }  // namespace occmap

@@ -15,7 +15,6 @@
 #include "transport/merge_status_message.h"
 #include "transport/status_message.h"
 #include "transport/status_text.h"
-#include "web/footprints_json.h"
 #include "web/map_wire.h"
 
 namespace occmap::web {
@@ -131,13 +130,13 @@ std::string BusFeed::open() {
       {zonesChannel(options_.map_channel),
        decoded(decodeZones,
                [](BusFeed* self, occmap::zones_t&& z) {
-                 self->state_.putZones(std::make_shared<const std::string>(zonesJson(z)));
+                 self->state_.putZones(std::make_shared<const std::string>(formatZonesJson(z)));
                  self->zones_.keep(std::move(z));
                })},
       {tracksChannel(options_.map_channel),
        decoded(decodeTracks,
                [](BusFeed* self, occmap::tracks_t&& t) {
-                 self->state_.putTracks(std::make_shared<const std::string>(tracksJson(t)));
+                 self->state_.putTracks(std::make_shared<const std::string>(formatTracksJson(t)));
                  self->tracks_.keep(std::move(t));
                })},
       {cameraPreviewChannel(status),
