@@ -56,6 +56,8 @@ bool fuzzTracks(Input input);          // tracks: tracks_t, read by occmap statu
 bool fuzzZones(Input input);           // zones: zones_t, read by occmap status
 bool fuzzMapTile(Input input);         // map_tile: map_tile_t messages, put together by MapReceiver
 bool fuzzMergeStatus(Input input);     // merge_status: merge_status_t, read by occmap status
+bool fuzzCameraPreview(Input input);   // camera_preview: camera_preview_t, read by occmap web
+bool fuzzCameraPreviewRequest(Input input);  // camera_preview_request: read by occmapd
 
 // The key the control_request seeds are signed with (fuzz_make_seeds): bytes 0, 1, ..., 31. Not
 // a secret: it exists so that fuzzing starts from requests whose mac holds.
@@ -91,6 +93,8 @@ inline constexpr Target kTargets[] = {
     {"zones", fuzzZones},
     {"map_tile", fuzzMapTile},
     {"merge_status", fuzzMergeStatus},
+    {"camera_preview", fuzzCameraPreview},
+    {"camera_preview_request", fuzzCameraPreviewRequest},
 };
 
 }  // namespace occmap::fuzz

@@ -4,6 +4,7 @@
 //   build-fuzz/fuzz/fuzz_make_seeds fuzz/corpus
 // The config and calibration seeds are text files written by hand (docs/fuzzing.md, "Seeds").
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include <occmap/camera_frame_t.hpp>
+#include <occmap/camera_preview_t.hpp>
 #include <occmap/control_reply_t.hpp>
 #include <occmap/control_request_t.hpp>
 #include <occmap/control_status_t.hpp>
@@ -23,9 +26,12 @@
 #include <occmap/tracks_t.hpp>
 #include <occmap/view_status_t.hpp>
 #include <occmap/zones_t.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "fuzz/fuzz_target.h"
 #include "fuzz/map_tile_input.h"
+#include "transport/camera_preview_message.h"
 #include "transport/control_message.h"
 #include "transport/map_codec.h"
 #include "transport/map_tiles.h"
@@ -211,6 +217,69 @@ void writeMapTileSeeds(const fs::path& folder) {
   }
 }
 
+// A camera preview as occmapd's previewer (daemon/previewer.cpp) makes it: the stream at its
+// scale as a grey JPEG of quality 80 (OpenCV), a person-sized block of changed pixels in it, and a
+// wedge of the map in front of the camera as its coverage, packed and compressed by transport's
+// own functions (packBits, compressCoverage, encodeCameraPreview).
+void writeCameraPreview(const fs::path& file, const std::string& camera, std::int8_t state,
+                        int stream_width, int stream_height, int map_width, int map_height) {
+  occmap::camera_preview_t preview{};
+  preview.utime = 1'700'000'000'123'456;
+  preview.sequence = 4321;
+  preview.hostname = "camera-pc";
+  preview.camera = camera;
+  preview.state = state;
+  preview.stream_width = stream_width;
+  preview.stream_height = stream_height;
+  preview.scale = occmap::previewScale(stream_width);
+  preview.width = occmap::previewSide(stream_width, preview.scale);
+  preview.height = occmap::previewSide(stream_height, preview.scale);
+  const int width = preview.width, height = preview.height;
+  const bool streaming = state == occmap::camera_frame_t::STATE_STREAMING;
+  cv::Mat grey(height, width, CV_8UC1);
+  std::vector<std::uint8_t> changed(static_cast<std::size_t>(width) *
+                                    static_cast<std::size_t>(height));
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      // A lit floor below a darker wall; a person in the middle when the camera streams.
+      const bool person = streaming && x >= width * 2 / 5 && x < width * 3 / 5 && y >= height / 4 &&
+                          y < height * 9 / 10;
+      const int floor = y > height / 3 ? 150 + (x + y) % 40 : 70 + x % 16;
+      grey.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(person ? 35 : floor);
+      changed[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+              static_cast<std::size_t>(x)] = person ? 1 : 0;
+    }
+  }
+  if (!cv::imencode(".jpg", grey, preview.jpeg, {cv::IMWRITE_JPEG_QUALITY, 80})) {
+    throw std::runtime_error("OpenCV could not encode the JPEG");
+  }
+  preview.jpeg_size = static_cast<std::int32_t>(preview.jpeg.size());
+  preview.changed.resize(occmap::packedBytes(changed.size()));
+  occmap::packBits(changed, preview.changed);
+  preview.changed_size = static_cast<std::int32_t>(preview.changed.size());
+  preview.map_width = map_width;
+  preview.map_height = map_height;
+  // The camera at the middle of row 0, looking along the rows: the cells within 30 degrees of its
+  // axis and nearer than three quarters of the map.
+  std::vector<std::uint8_t> coverage(static_cast<std::size_t>(map_width) *
+                                     static_cast<std::size_t>(map_height));
+  for (int row = 0; row < map_height; ++row) {
+    for (int column = 0; column < map_width; ++column) {
+      const double dx = column - map_width / 2.0, dy = row + 0.5;
+      const bool seen = std::abs(dx) <= dy * 0.58 && dy <= map_height * 0.75;
+      coverage[static_cast<std::size_t>(row) * static_cast<std::size_t>(map_width) +
+               static_cast<std::size_t>(column)] = seen ? 1 : 0;
+    }
+  }
+  std::vector<std::uint8_t> packed(occmap::packedBytes(coverage.size()));
+  occmap::packBits(coverage, packed);
+  preview.coverage = occmap::compressCoverage(packed);
+  preview.coverage_size = static_cast<std::int32_t>(preview.coverage.size());
+  std::vector<std::uint8_t> bytes;
+  occmap::encodeCameraPreview(preview, bytes);
+  write(file, bytes);
+}
+
 occmap::camera_status_t camera(const std::string& name, const std::string& source, int state) {
   occmap::camera_status_t c{};
   c.name = name;
@@ -346,7 +415,8 @@ int main(int argc, char** argv) {
   tracks.utime = status.utime - 40'000;
   tracks.seq = 2'799'998;
   tracks.hostname = status.hostname;
-  tracks.footprints = {{1.21, 0.34, 0.21, 0.62, 1.75}, {-0.42, 2.08, 0.17, 0.35, 1.75}, {2.9, 3.1, 0.04, 0.61, 0.5}};
+  tracks.footprints = {
+      {1.21, 0.34, 0.21, 0.62, 1.75}, {-0.42, 2.08, 0.17, 0.35, 1.75}, {2.9, 3.1, 0.04, 0.61, 0.5}};
   tracks.num_footprints = static_cast<std::int16_t>(tracks.footprints.size());
   occmap::track_t person{};
   person.id = 4;
@@ -502,5 +572,20 @@ int main(int argc, char** argv) {
   merge.inputs.clear();
   merge.num_inputs = 0;
   writeMessage(corpus / "merge_status" / "answer-no-inputs.bin", merge);
+
+  // Camera previews (lcmtypes/camera_preview_t.lcm): a streaming camera at scale 1 whose coverage
+  // bits end in padding; a wide stream at scale 3 (a ragged last column), the camera down, on a
+  // 250 x 200 map; the smallest there is, one pixel and one cell, while the camera starts.
+  writeCameraPreview(corpus / "camera_preview" / "streaming-160x120-map-41x29.bin", "door-camera",
+                     occmap::camera_frame_t::STATE_STREAMING, 160, 120, 41, 29);
+  writeCameraPreview(corpus / "camera_preview" / "down-700x90-scale-3-map-250x200.bin", "c1",
+                     occmap::camera_frame_t::STATE_DOWN, 700, 90, 250, 200);
+  writeCameraPreview(corpus / "camera_preview" / "starting-1x1-map-1x1.bin", "c0",
+                     occmap::camera_frame_t::STATE_STARTING, 1, 1, 1, 1);
+  // Requests for previews, as `occmap web` sends them (every camera) and for one camera.
+  write(corpus / "camera_preview_request" / "every-camera.bin",
+        occmap::encodeCameraPreviewRequest(1'700'000'000'000'000, ""));
+  write(corpus / "camera_preview_request" / "door-camera.bin",
+        occmap::encodeCameraPreviewRequest(1'700'000'000'500'000, "door-camera"));
   return 0;
 }
