@@ -24,6 +24,7 @@
 #include "transport/lcm_bus.h"
 #include "web/camera_path.h"
 #include "web/listen_address.h"
+#include "web/live_state.h"
 #include "web/map_wire.h"
 #include "web_test_support.h"
 
@@ -106,6 +107,34 @@ TEST(WebCameraPath, NamesAreDecodedAndNothingButANameIsTaken) {
     EXPECT_FALSE(web::parseCameraPath(path, error)) << path;
     EXPECT_EQ(error, web::CameraPathError::kBadName) << path;
   }
+}
+
+// Previews are held within a memory budget: anyone on the network can send previews of made-up
+// cameras, each declaring a large map whose coverage unpacks to a byte a cell.
+TEST(WebLiveState, PreviewsAreHeldWithinTheirMemoryBudget) {
+  using web::HeldPreview;
+  using web::LiveState;
+  LiveState state;
+  const auto preview = [](const std::string& camera, std::size_t bytes) {
+    auto p = std::make_shared<HeldPreview>();
+    p->hostname = "somewhere";
+    p->camera = camera;
+    p->coverage.assign(bytes, 1);
+    p->heard_ns = 1;
+    return p;
+  };
+  const std::size_t third = LiveState::kMaxPreviewBytes / 3 + 1;
+  state.putPreview(preview("a", third));
+  state.putPreview(preview("b", third));
+  EXPECT_EQ(state.previews(2).size(), 2u);
+  EXPECT_EQ(state.counters().refused, 0u);
+  state.putPreview(preview("c", third));  // past the budget: refused, counted
+  EXPECT_EQ(state.previews(2).size(), 2u);
+  EXPECT_EQ(state.counters().refused, 1u);
+  EXPECT_NE(state.counters().last_refusal.find("memory budget"), std::string::npos);
+  state.putPreview(preview("a", 1000));  // a camera held replaced: its own bytes leave the sum
+  state.putPreview(preview("c", third));
+  EXPECT_EQ(state.previews(2).size(), 3u);
 }
 
 TEST(WebListen, AddressesAreParsedAndNamesOtherThanLocalhostRefused) {

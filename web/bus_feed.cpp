@@ -299,10 +299,17 @@ void BusFeed::requestStatus() {
 void BusFeed::onPreview(const occmap::camera_preview_t& preview) {
   auto held = std::make_shared<HeldPreview>();
   std::string error;
-  std::optional<std::vector<std::uint8_t>> coverage = previewCoverage(preview, &error);
-  if (!coverage) {
-    refuse(cameraPreviewChannel(options_.status_channel), error);
-    return;
+  // The coverage unpacks to a byte a cell: only for maps of a size this server holds (the
+  // message's few hundred bytes could otherwise cost 64 MiB and a second of this thread).
+  std::optional<std::vector<std::uint8_t>> coverage;
+  if (static_cast<std::size_t>(std::max(preview.map_width, 0)) *
+          static_cast<std::size_t>(std::max(preview.map_height, 0)) <=
+      LiveState::kMaxCoverageCells) {
+    coverage = previewCoverage(preview, &error);
+    if (!coverage) {
+      refuse(cameraPreviewChannel(options_.status_channel), error);
+      return;
+    }
   }
   held->hostname = preview.hostname;
   held->camera = preview.camera;
@@ -314,7 +321,7 @@ void BusFeed::onPreview(const occmap::camera_preview_t& preview) {
   held->changed = previewChangedPixels(preview);
   held->map_width = preview.map_width;
   held->map_height = preview.map_height;
-  held->coverage = std::move(*coverage);
+  if (coverage) held->coverage = std::move(*coverage);
   held->heard_ns = monotonicNanoseconds();
   state_.putPreview(std::move(held));
 }

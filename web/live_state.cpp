@@ -68,6 +68,16 @@ void LiveState::putPreview(std::shared_ptr<const HeldPreview> preview) {
     const auto same = std::find_if(previews_.begin(), previews_.end(), [&](const auto& p) {
       return p->hostname == preview->hostname && p->camera == preview->camera;
     });
+    std::size_t held = preview->bytes();
+    for (const auto& p : previews_) {
+      if (same == previews_.end() || p != *same) held += p->bytes();
+    }
+    if (held > kMaxPreviewBytes) {
+      ++counters_.refused;
+      counters_.last_refusal = "a preview of " + preview->hostname + "/" + preview->camera +
+                               ": the previews held would pass their memory budget";
+      return;
+    }
     if (same != previews_.end()) {
       *same = std::move(preview);
     } else if (previews_.size() < kMaxPreviews) {

@@ -63,6 +63,8 @@ struct HeldPreview {
   int map_height = 0;
   std::vector<std::uint8_t> coverage;  // one byte per map cell, row-major from row 0; 1 decided
   std::int64_t heard_ns = 0;           // CLOCK_MONOTONIC when it came
+
+  std::size_t bytes() const { return jpeg.size() + changed.size() + coverage.size(); }
 };
 
 // A change counter per kind: a reader that kept the last it saw knows what is new.
@@ -95,6 +97,14 @@ class LiveState {
   static constexpr std::int64_t kForgetDaemonNs = 60'000'000'000;
   // The most cameras whose previews are held; a preview older than kForgetDaemonNs is forgotten.
   static constexpr std::size_t kMaxPreviews = 256;
+  // The most bytes all previews held may take. A message of a few hundred bytes can declare a map
+  // of 8192 x 8192 cells whose coverage zstd unpacks to 64 MiB (found by fuzz/camera_preview):
+  // without a budget, made-up camera names could make this server hold gigabytes. 32 cameras of
+  // 2048 x 2048 maps take 128 MiB.
+  static constexpr std::size_t kMaxPreviewBytes = std::size_t{256} << 20;
+  // A preview's coverage is held only for maps of at most this many cells (4096 x 4096); a larger
+  // map's previews are shown without their cells.
+  static constexpr std::size_t kMaxCoverageCells = std::size_t{4096} * 4096;
 
   LiveState() = default;
   LiveState(const LiveState&) = delete;

@@ -344,6 +344,11 @@ void Hub::drawCameraPicture(const CameraPath& path, std::function<void(PictureRe
     return;
   }
   const bool cells = path.picture == CameraPath::Picture::kCells;
+  if (cells && preview->coverage.empty()) {
+    done({http::status::not_found, nullptr, 0,
+          "that camera's cells are not held: its map is larger than this server draws\n"});
+    return;
+  }
   onPictureThread(
       [this, preview, cells] {
         // Changed pixels: red, two thirds opaque, over the frame. Cells: a light blue, opaque,
@@ -390,8 +395,10 @@ void Hub::drawCoverage(std::function<void(PictureResult)> done) {
     width = previews.front()->map_width;
     height = previews.front()->map_height;
   }
-  std::erase_if(previews,
-                [&](const auto& p) { return p->map_width != width || p->map_height != height; });
+  // Only previews whose coverage is held (LiveState::kMaxCoverageCells).
+  std::erase_if(previews, [&](const auto& p) {
+    return p->map_width != width || p->map_height != height || p->coverage.empty();
+  });
   if (previews.size() > 32) previews.resize(32);
   if (previews.empty()) {
     done({http::status::not_found, nullptr, 0,
