@@ -22,6 +22,7 @@
 #include "capture/sim/scene.h"
 #include "core/reference_fusion.h"
 #include "core/tsai_camera.h"
+#include "damaged_bytes.h"
 #include "map_scenes.h"
 
 namespace occmap {
@@ -461,21 +462,7 @@ TEST(MapDecoder, SurvivesRandomDamage) {
   int accepted = 0;
   for (int trial = 0; trial < 6000; ++trial) {
     std::vector<std::uint8_t> bytes = originals[static_cast<std::size_t>(trial) % 2];
-    const int damage = 1 + static_cast<int>(rng() % 4);
-    for (int d = 0; d < damage; ++d) {
-      const std::size_t at = rng() % bytes.size();
-      switch (rng() % 3) {
-        case 0:
-          bytes[at] = static_cast<std::uint8_t>(rng());
-          break;
-        case 1:
-          bytes[at] ^= static_cast<std::uint8_t>(1u << (rng() % 8));
-          break;
-        default:
-          bytes.resize(at);
-          if (bytes.empty()) bytes.push_back(0);
-      }
-    }
+    testing::damageBytes(bytes, rng);
     std::size_t largest = 0;
     bool ok = false;
     {

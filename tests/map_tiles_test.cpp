@@ -23,6 +23,7 @@
 #include "allocation_counter.h"
 #include "config/config.h"
 #include "config/input_error.h"
+#include "damaged_bytes.h"
 #include "map_scenes.h"
 #include "tiled_maps.h"
 #include "transport/map_publisher.h"
@@ -712,21 +713,7 @@ TEST(MapTileAssembler, SurvivesRandomDamage) {
         continue;
       }
       ++damaged;
-      const int damage = 1 + static_cast<int>(rng() % 4);
-      for (int d = 0; d < damage; ++d) {
-        const std::size_t at = rng() % bytes.size();
-        switch (rng() % 3) {
-          case 0:
-            bytes[at] = static_cast<std::uint8_t>(rng());
-            break;
-          case 1:
-            bytes[at] ^= static_cast<std::uint8_t>(1u << (rng() % 8));
-            break;
-          default:
-            bytes.resize(at);
-            if (bytes.empty()) bytes.push_back(0);
-        }
-      }
+      testing::damageBytes(bytes, rng);
       accepted_damaged += collector.take(bytes);
     }
   }
