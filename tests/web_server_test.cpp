@@ -677,9 +677,13 @@ TEST_F(WebServer, TwentyClientsOneNeverReadingTheOthersKeepTheRateAndTheServerIt
       << web_after.dump();
   EXPECT_GT(stalled_after["maps_skipped"].get<long>(), stalled_before["maps_skipped"].get<long>())
       << web_after.dump();
-  EXPECT_LT(memory_after - memory_before, 16 * 1024)
-      << "occmap web's memory grew by " << memory_after - memory_before << " KiB in " << kSeconds
-      << " s";
+  // Not under a sanitizer: ASan keeps what is freed in its quarantine (up to 256 MiB), so the
+  // resident size grows with every map encoded whether anything is held or not.
+  if (!kSanitized) {
+    EXPECT_LT(memory_after - memory_before, 16 * 1024)
+        << "occmap web's memory grew by " << memory_after - memory_before << " KiB in " << kSeconds
+        << " s";
+  }
   EXPECT_EQ(stalled.maps, 0);
 }
 
