@@ -10,6 +10,7 @@
 #include <zstd.h>
 
 #include "transport/wire_reader.h"
+#include "transport/zstd_frame.h"
 
 namespace occmap {
 namespace {
@@ -225,8 +226,8 @@ std::vector<std::uint8_t> previewChangedPixels(const occmap::camera_preview_t& p
 
 std::optional<std::vector<std::uint8_t>> previewCoverage(const occmap::camera_preview_t& preview,
                                                          std::string* error) {
-  auto refuse = [error](const char* why) -> std::optional<std::vector<std::uint8_t>> {
-    if (error != nullptr) *error = why;
+  auto refuse = [error](std::string why) -> std::optional<std::vector<std::uint8_t>> {
+    if (error != nullptr) *error = std::move(why);
     return std::nullopt;
   };
   if (preview.map_width < 1 || preview.map_height < 1 || preview.map_width > kMaxPreviewMapSide ||
@@ -238,22 +239,12 @@ std::optional<std::vector<std::uint8_t>> previewCoverage(const occmap::camera_pr
   const std::size_t bytes = packedBytes(cells);
   const std::uint8_t* frame = preview.coverage.data();
   const std::size_t compressed = preview.coverage.size();
-  const unsigned long long content = ZSTD_getFrameContentSize(frame, compressed);
-  if (content == ZSTD_CONTENTSIZE_ERROR) return refuse("the coverage is not a zstd frame");
-  if (content == ZSTD_CONTENTSIZE_UNKNOWN) {
-    return refuse("the coverage's zstd frame does not declare its content size");
-  }
-  if (content != bytes) {
-    return refuse("the coverage's zstd frame declares another size than the map's bits");
-  }
-  const std::size_t frame_size = ZSTD_findFrameCompressedSize(frame, compressed);
-  if (ZSTD_isError(frame_size)) return refuse("the coverage's zstd frame is corrupt");
-  if (frame_size != compressed) return refuse("bytes after the coverage's zstd frame");
+  std::string why = zstdFrameProblem(frame, compressed, bytes, "the size of the map's bits");
+  if (!why.empty()) return refuse("the coverage: " + why);
   try {
     std::vector<std::uint8_t> packed(bytes);
-    const std::size_t out = ZSTD_decompress(packed.data(), bytes, frame, compressed);
-    if (ZSTD_isError(out)) return refuse("the coverage's zstd frame is corrupt");
-    if (out != bytes) return refuse("the coverage's zstd frame holds fewer bytes than it says");
+    why = decompressZstdFrame(nullptr, frame, compressed, packed.data(), bytes);
+    if (!why.empty()) return refuse("the coverage: " + why);
     return unpackBits(packed, cells);
   } catch (const std::bad_alloc&) {
     return refuse("out of memory while unpacking the coverage");

@@ -14,6 +14,7 @@
 #include <zstd.h>
 
 #include "transport/wire_reader.h"
+#include "transport/zstd_frame.h"
 
 namespace occmap {
 namespace {
@@ -307,34 +308,12 @@ void MapDecoder::decodeChecked(const std::uint8_t* data, std::size_t size) {
   if (r.encoding == MapEncoding::kRaw) {
     r.cells.assign(payload, payload + cells);
   } else {
-    const std::size_t compressed = static_cast<std::size_t>(data_size);
-    const unsigned long long content = ZSTD_getFrameContentSize(payload, compressed);
-    if (content == ZSTD_CONTENTSIZE_ERROR) return fail("the data is not a zstd frame");
-    if (content == ZSTD_CONTENTSIZE_UNKNOWN) {
-      return fail("the zstd frame does not declare its content size");
-    }
-    if (content != cells) {
-      return fail("the zstd frame says it holds " + number(content) +
-                  " bytes, but width * height = " + number(cells));
-    }
-    const std::size_t frame_size = ZSTD_findFrameCompressedSize(payload, compressed);
-    if (ZSTD_isError(frame_size)) {
-      return fail(std::string("corrupt zstd frame: ") + ZSTD_getErrorName(frame_size));
-    }
-    if (frame_size != compressed) {
-      return fail("the data holds " + number(compressed - frame_size) +
-                  " bytes after its zstd frame");
-    }
-    r.cells.resize(cells);
-    const std::size_t size_out =
-        ZSTD_decompressDCtx(zstd_, r.cells.data(), cells, payload, compressed);
-    if (ZSTD_isError(size_out)) {
-      return fail(std::string("corrupt zstd frame: ") + ZSTD_getErrorName(size_out));
-    }
-    if (size_out != cells) {
-      return fail("the zstd frame decompressed to " + number(size_out) + " bytes, not " +
-                  number(cells));
-    }
+    const auto compressed = static_cast<std::size_t>(data_size);
+    std::string why = zstdFrameProblem(payload, compressed, cells, "width * height");
+    if (!why.empty()) return fail(why);
+    r.cells.resize(cells);  // only once the frame is known to hold that many
+    why = decompressZstdFrame(zstd_, payload, compressed, r.cells.data(), cells);
+    if (!why.empty()) return fail(why);
   }
   const auto bad = std::find_if(r.cells.begin(), r.cells.end(), [](std::uint8_t v) {
     return v > static_cast<std::uint8_t>(CellState::kUnseen);

@@ -15,6 +15,7 @@
 #include <zstd.h>
 
 #include "transport/wire_reader.h"
+#include "transport/zstd_frame.h"
 
 namespace occmap {
 namespace {
@@ -488,32 +489,11 @@ void MapTileAssembler::decodeTile(const std::uint8_t* data, std::size_t size, Ti
   if (t.encoding == MapEncoding::kRaw) {
     t.cells = payload;
   } else {
-    const unsigned long long content = ZSTD_getFrameContentSize(payload, t.data_size);
-    if (content == ZSTD_CONTENTSIZE_ERROR) return fail("the data is not a zstd frame");
-    if (content == ZSTD_CONTENTSIZE_UNKNOWN) {
-      return fail("the zstd frame does not declare its content size");
+    std::string corrupt = zstdFrameProblem(payload, t.data_size, cells, "tile_width * tile_height");
+    if (corrupt.empty()) {
+      corrupt = decompressZstdFrame(zstd_, payload, t.data_size, tile_cells_.data(), cells);
     }
-    if (content != cells) {
-      return fail("the zstd frame says it holds " + tileNumber(content) +
-                  " bytes, but tile_width * tile_height = " + tileNumber(cells));
-    }
-    const std::size_t frame_size = ZSTD_findFrameCompressedSize(payload, t.data_size);
-    if (ZSTD_isError(frame_size)) {
-      return fail(std::string("corrupt zstd frame: ") + ZSTD_getErrorName(frame_size));
-    }
-    if (frame_size != t.data_size) {
-      return fail("the data holds " + tileNumber(t.data_size - frame_size) +
-                  " bytes after its zstd frame");
-    }
-    const std::size_t size_out =
-        ZSTD_decompressDCtx(zstd_, tile_cells_.data(), cells, payload, t.data_size);
-    if (ZSTD_isError(size_out)) {
-      return fail(std::string("corrupt zstd frame: ") + ZSTD_getErrorName(size_out));
-    }
-    if (size_out != cells) {
-      return fail("the zstd frame decompressed to " + tileNumber(size_out) + " bytes, not " +
-                  tileNumber(cells));
-    }
+    if (!corrupt.empty()) return fail(corrupt);
     t.cells = tile_cells_.data();
   }
   const std::uint8_t* end = t.cells + cells;
