@@ -45,10 +45,12 @@ constexpr std::string_view kTopKeys[] = {"map",     "cameras",    "fusion", "tra
                                          "control", "footprints", "zones",  "merge"};
 constexpr std::string_view kZoneKeys[] = {"name", "polygon_m"};
 constexpr std::string_view kFootprintKeys[] = {
-    "box_width_m",        "box_height_m",       "step_m",           "min_support",
-    "min_fresh",          "min_separation_m",   "min_cameras",      "enabled",
-    "object_height_m",    "object_min_support", "object_min_fresh", "settle_reach_m",
-    "hidden_floor_unseen"};
+    "box_width_m",         "box_height_m",     "step_m",
+    "min_support",         "min_fresh",        "min_separation_m",
+    "min_cameras",         "enabled",          "object_height_m",
+    "object_min_support",  "object_min_fresh", "settle_reach_m",
+    "hidden_floor_unseen", "expected_reach_m", "expected_fresh_share",
+    "expected_within_s"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
@@ -491,6 +493,12 @@ class ConfigReader {
         footprints.settle_reach_m = real(entry.value, 0.0, false, 5.0, " m");
       } else if (entry.key == "hidden_floor_unseen") {
         footprints.hidden_floor_unseen = boolean(entry.value);
+      } else if (entry.key == "expected_reach_m") {
+        footprints.expected_reach_m = real(entry.value, 0.0, false, 2.0, " m");
+      } else if (entry.key == "expected_fresh_share") {
+        footprints.expected_fresh_share = real(entry.value, 0.0, false, 1.0, "");
+      } else if (entry.key == "expected_within_s") {
+        footprints.expected_within_s = real(entry.value, 0.0, false, 10.0, " s");
       }
     }
     return footprints;

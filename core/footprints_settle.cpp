@@ -47,21 +47,6 @@ FootprintDetector::Fit FootprintDetector::fit(std::size_t c) const {
   return f;
 }
 
-// Calls visit(candidate) for each people's candidate on the grid within `steps` places of (row,
-// column) across and down.
-template <class Visit>
-void FootprintDetector::forEachNear(int row, int column, int steps, Visit visit) const {
-  for (int r = std::max(0, row - steps); r <= std::min(grid_down_ - 1, row + steps); ++r) {
-    for (int col = std::max(0, column - steps); col <= std::min(grid_across_ - 1, column + steps);
-         ++col) {
-      const std::uint32_t n =
-          grid_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_across_) +
-                static_cast<std::size_t>(col)];
-      if (n != kNoCandidate) visit(static_cast<std::size_t>(n));
-    }
-  }
-}
-
 // Only the pieces that some box of the candidates within `steps` of the grid's place (row,
 // column) touches, in each camera: they are all that settle() judges there (the others' pieces
 // are some 60 a camera in a crowd of twelve, a handful of them near one person).

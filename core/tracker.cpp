@@ -139,4 +139,13 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
   return out_;
 }
 
+void Tracker::expectedAt(double time_s, double within_s, std::vector<Eigen::Vector2d>& out) const {
+  if (!started_) return;
+  const double dt = std::max(0.0, time_s - time_s_);
+  for (const State& state : states_) {
+    if (!state.track.confirmed || time_s - state.last_s > within_s) continue;
+    out.emplace_back(state.x(0) + dt * state.x(2), state.x(1) + dt * state.x(3));
+  }
+}
+
 }  // namespace occmap

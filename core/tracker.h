@@ -55,6 +55,11 @@ class Tracker {
   // confirmed tracks, valid until the next call.
   const std::vector<Track>& update(std::span<const Detection> detections, double time_s);
 
+  // Where the people followed should stand at time_s (no earlier than the last update): each
+  // confirmed track found no more than within_s before time_s, moved on at its velocity. The
+  // detector looks for them there first (FootprintDetector::detect's `expected`). Appends to out.
+  void expectedAt(double time_s, double within_s, std::vector<Eigen::Vector2d>& out) const;
+
  private:
   struct State {
     Track track;

@@ -38,7 +38,10 @@ FootprintsStage::FootprintsStage(const MapGeometry& map, std::span<const Camera>
               emptyOffer(mask_bytes, map.cellCount())),
       results_(emptyResult(), emptyResult(), emptyResult()),
       for_zones_(emptyFound(), emptyFound(), emptyFound()),
-      masks_(mask_bytes.size(), nullptr) {}
+      masks_(mask_bytes.size(), nullptr),
+      expected_within_s_(settings.expected_within_s) {
+  expected_.reserve(64);
+}
 
 void FootprintsStage::offer(std::uint64_t fused, std::int64_t utime, double time_s,
                             std::span<const std::uint8_t* const> changed,
@@ -81,7 +84,9 @@ bool FootprintsStage::findNewest() {
   for (std::size_t k = 0; k < masks_.size(); ++k) {
     masks_[k] = offer.used[k] != 0 ? offer.changed[k].data() : nullptr;
   }
-  const std::vector<Detection>& footprints = detector_.detect(masks_, offer.cells);
+  expected_.clear();
+  tracker_.expectedAt(offer.time_s, expected_within_s_, expected_);
+  const std::vector<Detection>& footprints = detector_.detect(masks_, offer.cells, expected_);
   const std::vector<Track>& tracks = tracker_.update(footprints, offer.time_s);
   FootprintsFound& out = results_.writeBuffer();
   out.fused = offer.fused;

@@ -89,6 +89,10 @@ class FootprintsStage {
   TripleBuffer<FootprintsFound> results_;
   TripleBuffer<FoundForZones> for_zones_;
   std::vector<const std::uint8_t*> masks_;
+  // Where the tracker expects the people it follows on the next map: the detector looks there
+  // first (FootprintSettings::expected_reach_m). Reserved for a crowd.
+  std::vector<Eigen::Vector2d> expected_;
+  double expected_within_s_;
   EventFd wakeup_;
   std::atomic<bool> stopping_{false};
 };

@@ -153,5 +153,33 @@ TEST(TrackScore, CountsASwitchAndPairsIdentitiesOnceForIdf1) {
   EXPECT_NEAR(s.idf1(), 2.0 * 3.0 / 12.0, 1e-12);
 }
 
+// Where the detector should look first on the next map: each confirmed track seen lately, moved
+// on at its velocity; not a tentative track, nor one unseen for longer than asked.
+TEST(Tracker, ExpectsThePeopleItFollowsWhereTheyWillBe) {
+  Tracker tracker;
+  std::vector<Eigen::Vector2d> expected;
+  tracker.expectedAt(0.0, 0.2, expected);
+  EXPECT_TRUE(expected.empty()) << "nothing followed yet";
+  // A walker at 1 m/s along x, 10 maps a second, and a stray seen once.
+  for (int frame = 0; frame <= 10; ++frame) {
+    const double t = frame / 10.0;
+    std::vector<Detection> detections = {{1.0 + t, 2.0, 0.2, 0.5, 1.75}};
+    if (frame == 10) detections.push_back({4.0, 4.0, 0.2, 0.5, 1.75});
+    tracker.update(detections, t);
+  }
+  tracker.expectedAt(1.1, 0.2, expected);
+  ASSERT_EQ(expected.size(), 1u) << "the stray's track is tentative";
+  EXPECT_NEAR(expected[0].x(), 2.1, 0.05);
+  EXPECT_NEAR(expected[0].y(), 2.0, 0.05);
+  // Unseen since t = 1 s: expected until 0.2 s later, then no more.
+  tracker.update({}, 1.1);
+  expected.clear();
+  tracker.expectedAt(1.15, 0.2, expected);
+  EXPECT_EQ(expected.size(), 1u);
+  expected.clear();
+  tracker.expectedAt(1.3, 0.2, expected);
+  EXPECT_TRUE(expected.empty());
+}
+
 }  // namespace
 }  // namespace occmap

@@ -42,15 +42,18 @@ OfflineFootprints::OfflineFootprints(const Config& config, const std::vector<Rig
   if (!tracks_csv.empty()) {
     openCsv(tracks_file_, tracks_csv, "tracks file",
             "frame,track_id,x_m,y_m,vx_m_s,vy_m_s,area_m2");
-    tracker_.emplace();
+    tracking_ = true;
   }
   if (cameras.front().sim != nullptr) {
     frame_s_ = 1.0 / cameras.front().sim->fps();
+    expect_ = true;
   } else if (config.cameras.front().fps) {
     frame_s_ = 1.0 / *config.cameras.front().fps;
+    expect_ = true;
   }
-  if (detections_file_.is_open() || tracker_) {
+  if (detections_file_.is_open() || tracking_) {
     detector_.emplace(config.map, posed_, config.footprints);
+    if (tracking_ || expect_) tracker_.emplace();
   }
   for (const Camera& camera : posed_) camera_centres_.push_back(camera.centreMetres());
   for (std::size_t z = 0; z < zones_.size(); ++z) {
@@ -74,7 +77,11 @@ void OfflineFootprints::add(std::uint64_t map, std::span<const std::uint8_t* con
   followed_.clear();
   followed_ids_.clear();
   if (detector_) {
-    const std::vector<Detection>& detected = detector_->detect(masks, cells);
+    expected_.clear();
+    if (tracker_ && expect_) {
+      tracker_->expectedAt(time_s, config_.footprints.expected_within_s, expected_);
+    }
+    const std::vector<Detection>& detected = detector_->detect(masks, cells, expected_);
     detected_.assign(detected.begin(), detected.end());
     for (const Detection& d : detected) {
       found_.push_back({d.x_m, d.y_m});
@@ -86,7 +93,9 @@ void OfflineFootprints::add(std::uint64_t map, std::span<const std::uint8_t* con
       ++detections_;
     }
     if (tracker_) {
-      for (const Track& t : tracker_->update(detected, time_s)) {
+      const std::vector<Track>& tracks = tracker_->update(detected, time_s);
+      for (const Track& t : tracks) {
+        if (!tracking_) break;  // followed only for the detector's sake
         followed_.push_back({t.x_m, t.y_m});
         followed_ids_.push_back(t.id);
         char row[160];
@@ -161,7 +170,7 @@ void OfflineFootprints::scoreAgainst(const std::vector<sim::SceneObject>& object
     thing_ids_.push_back(static_cast<std::int64_t>(i));  // the scene's objects keep their order
     if (objects[i].kind == sim::ObjectKind::kPerson) people_.push_back(centre);
   }
-  if (tracker_) track_score_.addFrame(things_, thing_ids_, followed_, followed_ids_);
+  if (tracking_) track_score_.addFrame(things_, thing_ids_, followed_, followed_ids_);
   people_score_.addFrame(people_, found_);
   object_score_.addFrame(things_, found_);
   for (std::size_t kind = 0; kind < std::size(kind_score_); ++kind) {
@@ -182,7 +191,7 @@ bool OfflineFootprints::finishFiles(const char* command, std::uint64_t maps, dou
     return false;
   };
   const double rate = static_cast<double>(maps) / seconds;
-  if (tracker_) {
+  if (tracking_) {
     if (!close(tracks_file_, tracks_path_)) return false;
     std::printf("wrote %llu track rows on %llu maps to %s (%.1f maps/s, %.3f s between maps)\n",
                 static_cast<unsigned long long>(track_rows_), static_cast<unsigned long long>(maps),

@@ -61,6 +61,12 @@ class OfflineFootprints {
   double frame_s_ = 1.0 / 30.0;
   std::optional<FootprintDetector> detector_;
   std::optional<Tracker> tracker_;
+  // Where the tracker expects the people it follows on the next map (the detector looks there
+  // first): only when the time between maps is known, never for files:// without an `fps`, which
+  // may be still images a second apart (EPFL's moments). `occmap detect` follows them too.
+  bool expect_ = false;
+  bool tracking_ = false;  // writing tracks
+  std::vector<Eigen::Vector2d> expected_;
   std::vector<Camera> posed_;
   Zones zones_;
   // Per zone, cells x cameras: 1 where the camera's image has the cell's centre.
