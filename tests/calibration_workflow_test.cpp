@@ -12,6 +12,7 @@
 #include <fstream>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -20,6 +21,7 @@
 #include "config/calibration_file.h"
 #include "core/opencv_camera.h"
 #include "temporary_folder.h"
+#include "timing.h"
 
 namespace occmap {
 namespace {
@@ -40,9 +42,18 @@ double numberAfter(const std::string& text, const std::string& label) {
   return std::atof(text.c_str() + at + label.size());
 }
 
+// The cameras calibrated with occmap in the test below. Under a sanitizer two of the four (on
+// opposite sides of the room), and the other two keep their true calibration in the maps compared:
+// each step runs the same code for every camera, and rendering each camera's pictures is most of
+// the time under ASan, while the targets over all four are the plain build's to hold (the same
+// arithmetic there). The binary's CPU under ASan 67 s -> 42 s.
+const std::vector<std::string> kCalibrated = testing::kSanitized
+                                                 ? std::vector<std::string>{"c0", "c2"}
+                                                 : std::vector<std::string>{"c0", "c1", "c2", "c3"};
+
 TEST(CalibrationWorkflow, TheSimulatedRoomCalibratedWithOccmapMapsAsTheTrueCalibration) {
   const testing::TemporaryFolder folder;
-  for (const std::string camera : {"c0", "c1", "c2", "c3"}) {
+  for (const std::string& camera : kCalibrated) {
     const fs::path pictures = folder / camera;
     auto result = runCommand({kOccmap, "calibrate", "simulate", "--config", kMarkersConfig,
                               "--camera", camera, "--board", kBoard, "--out", pictures.string()});
@@ -118,14 +129,15 @@ TEST(CalibrationWorkflow, TheSimulatedRoomCalibratedWithOccmapMapsAsTheTrueCalib
   ASSERT_EQ(result.exit_code, 0) << result.err;
   std::string replay = testing::readWhole(recorded / "replay.yaml");
   std::string ours = replay;
-  for (const std::string camera : {"c0", "c1", "c2", "c3"}) {
+  for (const std::string& camera : kCalibrated) {
     const std::string written = "calibration: " + camera + "/calibration.xml";
     const std::size_t at = ours.find(written);
     ASSERT_NE(at, std::string::npos) << replay;
     ours.replace(at, written.size(), "calibration: " + (folder / (camera + ".yaml")).string());
-  }
-  for (std::size_t at = 0; (at = ours.find("calibration_units: mm", at)) != std::string::npos;) {
-    ours.replace(at, 21, "calibration_units: m");
+    // Its units, the key after (the simulator's are mm, occmap's files' metres).
+    const std::size_t units = ours.find("calibration_units: mm", at);
+    ASSERT_NE(units, std::string::npos) << replay;
+    ours.replace(units, 21, "calibration_units: m");
   }
   std::ofstream(recorded / "ours.yaml") << ours;
   for (const std::string name : {"replay", "ours"}) {

@@ -15,6 +15,7 @@
 #include "command_runner.h"
 #include "sim_room_config.h"
 #include "temporary_folder.h"
+#include "timing.h"
 
 namespace occmap {
 namespace {
@@ -162,6 +163,11 @@ TEST(OccmapFuse, FromHalfToDoubleTheLightsMapsAreTheConstantLightsASecondAfterEa
   floor.replace(columns_at, columns.size(), "column_height_m: 0");
   constexpr int kFrames = 100;  // the scene's 20 s
   for (const auto& [mode, text] : {std::pair{"columns", room}, std::pair{"floor", floor}}) {
+    // Under a sanitizer the columns alone (the day's test below runs floor points there): both
+    // put the same light's model through the same code, and what ASan watches is that code, not
+    // the carve table's (occmap_cli_test fuses both under it). With the day's: the binary's CPU
+    // under ASan 49 s -> 34 s.
+    if (testing::kSanitized && std::string(mode) == "floor") continue;
     SCOPED_TRACE(mode);
     const std::string name = mode;
     folder.write(name + "-room.yaml", atFps(text, "5"));
@@ -294,6 +300,8 @@ TEST(OccmapFuse, ADayInTheRoomFindsEveryObjectAndRePosesTheKnockedCamera) {
   // constant light; it is still found in every map.
   for (const Run& run :
        {Run{"columns", &text, 100.0, 94.5, 91.0}, Run{"floor", &floor_text, 95.0, 98.3, 96.5}}) {
+    // Under a sanitizer the floor points alone (the columns are the test above's there).
+    if (testing::kSanitized && std::string(run.name) == "columns") continue;
     SCOPED_TRACE(run.name);
     const std::string name = std::string(run.name) + ".yaml";
     folder.write(name, *run.text);

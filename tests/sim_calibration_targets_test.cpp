@@ -28,6 +28,7 @@
 #include "capture/sim/renderer.h"
 #include "capture/sim/target_view.h"
 #include "core/tsai_camera.h"
+#include "timing.h"
 
 namespace occmap {
 namespace {
@@ -86,6 +87,14 @@ TEST(FloorMarkers, MarkersYamlListsTheDictionaryAndEveryMarker) {
 
 constexpr double kLeastMarkerSidePx = 15.0;
 
+// Under a sanitizer every other camera of the room and every third view of a held target: each is
+// rendered and its corners found as in the plain build, which is what ASan needs to watch (the
+// simulator's rendering is most of the time there), while the precision over every camera and
+// view is the plain build's to hold (it is the same arithmetic there). The binary's CPU under
+// ASan 36 s -> 16 s.
+constexpr std::size_t kCameraStep = testing::kSanitized ? 2 : 1;
+constexpr std::size_t kViewStep = testing::kSanitized ? 3 : 1;
+
 TEST(FloorMarkers, EveryCameraFindsTheMarkersItSeesWhereTheyAre) {
   const auto scene = sim::makeScene("room-markers");
   ASSERT_TRUE(scene);
@@ -95,7 +104,7 @@ TEST(FloorMarkers, EveryCameraFindsTheMarkersItSeesWhereTheyAre) {
       cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50);
   const cv::Ptr<cv::aruco::DetectorParameters> parameters = cv::aruco::DetectorParameters::create();
   parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_SUBPIX;
-  for (std::size_t k = 0; k < scene->cameras().size(); ++k) {
+  for (std::size_t k = 0; k < scene->cameras().size(); k += kCameraStep) {
     const sim::SceneCamera& scene_camera = scene->cameras()[k];
     const sim::Renderer view(*scene, streamCamera(scene_camera), static_cast<int>(k));
     const cv::Mat image = viewOf(view.background());
@@ -255,7 +264,7 @@ TEST_F(HeldTargets, ChArUcoCornersAreFoundWhereTheBoardsCornersProject) {
     }
   }
   std::vector<double> errors;
-  for (std::size_t k = 0; k < poses_.size(); ++k) {
+  for (std::size_t k = 0; k < poses_.size(); k += kViewStep) {
     const Image image = sim::renderTargetView(view_, texture, 0.36, 0.28, poses_[k], k + 1);
     const BoardCorners found = findBoardCorners(*spec, viewOf(image));
     EXPECT_GE(found.size(), 16u) << "view " << k << " finds too few ChArUco corners";
@@ -272,7 +281,7 @@ TEST_F(HeldTargets, ChArUcoCornersAreFoundWhereTheBoardsCornersProject) {
   std::printf(
       "ChArUco: %zu corners in %zu views, error median %.3f px, 99th percentile %.3f px, "
       "max %.3f px\n",
-      errors.size(), poses_.size(), spread.median, p99, spread.max);
+      errors.size(), (poses_.size() + kViewStep - 1) / kViewStep, spread.median, p99, spread.max);
   EXPECT_LE(spread.median, 0.2);
   // OpenCV 4.6's own refinement of ChArUco corners misses a few corners of a board held out near
   // the picture's bottom-left corner, steeply tilted, by up to 1.2 px (the chessboard's, refined
@@ -302,7 +311,7 @@ TEST_F(HeldTargets, ChessboardCornersAreFoundWhereTheBoardsCornersProject) {
       sim::targetPosesFor(view_.camera(), width_m, height_m, 12);
   ASSERT_EQ(poses.size(), 12u);
   std::vector<double> errors;
-  for (std::size_t k = 0; k < poses.size(); ++k) {
+  for (std::size_t k = 0; k < poses.size(); k += kViewStep) {
     const Image image = sim::renderTargetView(view_, texture, width_m, height_m, poses[k], k + 100);
     std::vector<cv::Point2f> corners;
     const bool found =
@@ -326,7 +335,7 @@ TEST_F(HeldTargets, ChessboardCornersAreFoundWhereTheBoardsCornersProject) {
   }
   const Spread spread = spreadOf(errors);
   std::printf("chessboard: %zu corners in %zu views, error median %.3f px, max %.3f px\n",
-              errors.size(), poses.size(), spread.median, spread.max);
+              errors.size(), (poses.size() + kViewStep - 1) / kViewStep, spread.median, spread.max);
   EXPECT_LE(spread.median, 0.2);
   EXPECT_LE(spread.max, 0.5);
 }

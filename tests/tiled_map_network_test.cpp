@@ -395,9 +395,13 @@ TEST(TiledMapNetwork, TilesOverALossyLinkArriveWholeOrAreCountedLost) {
   // A raw-tile run first, without loss: the receiving side itself loses nothing. Then with loss:
   // a 2048 x 2048 map of the scene (81 zstd tiles of about 1 KB, a packet each) and random
   // 1024 x 1024 raw maps (25 tiles of 57.8 KB: 40 packets each, so a third of them lost).
-  // Under a sanitizer this process decodes several times slower: fewer maps come, slower.
+  // Under a sanitizer this process decodes several times slower: fewer maps come, slower. A third
+  // of them there (20 scene and 13 raw maps on the lossy link): still maps whole and maps missing
+  // tiles, which is what the sanitizers watch (the loss against 1 % of the packets is the plain
+  // build's to hold; there only that some tiles were lost). 32 s -> 21 s under ASan, 61 s -> 44 s
+  // under TSan.
   const double pace = testing::kSanitized ? 0.25 : 1.0;
-  const int fewer = testing::kSanitized ? 2 : 1;
+  const int fewer = testing::kSanitized ? 3 : 1;
   PublisherRun runs[] = {
       PublisherRun("clean raw", "OCCMAP_CLEAN", 1024, "raw", "random", 30 / fewer, 15 * pace),
       PublisherRun("clean scene", "OCCMAP_CLEAN_SCENE", 2048, "zstd", "scene", 20 / fewer,
@@ -542,8 +546,8 @@ TEST(TiledMapNetwork, TilesOverALossyLinkArriveWholeOrAreCountedLost) {
   // LCM's and the kernel's own drops would show as more).
   for (const Checked* c : {&scene, &raw}) {
     EXPECT_GT(c->tiles_lost, 0) << "1 % of the packets lost and not one tile?";
-    EXPECT_GE(static_cast<double>(c->tiles_lost), c->expected_lost / 3.0);
     if (!testing::kSanitized) {
+      EXPECT_GE(static_cast<double>(c->tiles_lost), c->expected_lost / 3.0);
       EXPECT_LE(static_cast<double>(c->tiles_lost), c->expected_lost * 2.0 + 10.0);
     }
   }

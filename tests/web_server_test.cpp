@@ -34,6 +34,7 @@ namespace {
 using namespace std::chrono_literals;
 using testing::eventually;
 using testing::FeedSocket;
+using testing::HttpMethod;
 using testing::httpRequest;
 using testing::kSanitized;
 using testing::rawExchange;
@@ -41,11 +42,6 @@ using testing::runCommand;
 using testing::TemporaryFolder;
 using testing::WebProcess;
 using testing::WebTestDaemon;
-namespace http = testing::http;
-namespace websocket = testing::websocket;
-namespace beast = testing::beast;
-namespace asio = testing::asio;
-using testing::tcp;
 using Json = nlohmann::json;
 
 // The README's colours (tools/pictures.cpp) as the PNG has them (BGR): free, occupied, unseen.
@@ -327,7 +323,7 @@ TEST_F(WebServer, MapPngIsTheMapAsAFloorPlanAndTheMapFramesCarryTheSameCells) {
   // An old map is gone from the ring; a bad query is refused.
   EXPECT_EQ(httpRequest(port(), "/map.png?seq=-5").status, 404);
   EXPECT_EQ(httpRequest(port(), "/map.png?seq=x").status, 400);
-  const testing::HttpAnswer head = httpRequest(port(), "/map.png", http::verb::head);
+  const testing::HttpAnswer head = httpRequest(port(), "/map.png", HttpMethod::kHead);
   EXPECT_EQ(head.status, 200) << head.error;
   EXPECT_GT(std::atol(head.header("content-length").c_str()), 1000);
   EXPECT_TRUE(head.body.empty());
@@ -475,10 +471,10 @@ TEST_F(WebServer, BadRequestsGetAnErrorAndTheServerKeepsServing) {
   EXPECT_EQ(missing.header("x-content-type-options"), "nosniff");
   EXPECT_NE(missing.header("content-security-policy").find("default-src 'none'"),
             std::string::npos);
-  const testing::HttpAnswer post = httpRequest(port(), "/api/status", http::verb::post);
+  const testing::HttpAnswer post = httpRequest(port(), "/api/status", HttpMethod::kPost);
   EXPECT_EQ(post.status, 405);
   EXPECT_EQ(post.header("allow"), "GET, HEAD");
-  EXPECT_EQ(httpRequest(port(), "/", http::verb::delete_).status, 405);
+  EXPECT_EQ(httpRequest(port(), "/", HttpMethod::kDelete).status, 405);
 
   // A head of 100 KiB: 431, whatever comes after it.
   const std::string huge =
@@ -496,7 +492,7 @@ TEST_F(WebServer, BadRequestsGetAnErrorAndTheServerKeepsServing) {
   EXPECT_TRUE(body.starts_with("HTTP/1.1 413")) << body.substr(0, 200);
   // Another site's name (DNS rebinding) and another site's page (its Origin on the WebSocket).
   const testing::HttpAnswer rebound =
-      httpRequest(port(), "/api/status", http::verb::get, {{"Host", "attacker.example:8080"}});
+      httpRequest(port(), "/api/status", HttpMethod::kGet, {{"Host", "attacker.example:8080"}});
   EXPECT_EQ(rebound.status, 403);
   FeedSocket foreign(port(), "http://attacker.example");
   EXPECT_FALSE(foreign.connected());
@@ -524,114 +520,62 @@ TEST_F(WebServer, AWebSocketFloodIsClosedAndTheOthersKeepTheirFeed) {
   ASSERT_TRUE(watcher.connected()) << watcher.error();
   FeedSocket flood(port());
   ASSERT_TRUE(flood.connected()) << flood.error();
-  auto& ws = flood.ws();
-  ws.text(true);
-  const std::string message = "let me in";
-  int sent = 0;
-  bool write_failed = false;
-  beast::error_code read_error;
-  beast::flat_buffer buffer;
-  std::function<void()> writeMore = [&] {
-    ws.async_write(asio::buffer(message), [&](beast::error_code ec, std::size_t) {
-      if (ec) {
-        write_failed = true;
-        return;
-      }
-      if (++sent < 20000) writeMore();
-    });
-  };
-  std::function<void()> readMore = [&] {
-    ws.async_read(buffer, [&](beast::error_code ec, std::size_t) {
-      buffer.clear();
-      if (ec) {
-        read_error = ec;
-        return;
-      }
-      readMore();
-    });
-  };
-  writeMore();
-  readMore();
-  flood.io().restart();
-  flood.io().run_for(eventually(10s));
-  std::printf("the flooding client sent %d messages before it was closed (%s)\n", sent,
-              read_error.message().c_str());
-  EXPECT_TRUE(read_error == websocket::error::closed || write_failed) << read_error.message();
-  if (read_error == websocket::error::closed) {
-    EXPECT_EQ(ws.reason().code, websocket::close_code::policy_error);
+  const FeedSocket::Flood flooded = flood.flood("let me in", 20000, eventually(10s));
+  std::printf("the flooding client sent %d messages before it was closed (%s)\n", flooded.sent,
+              flooded.read_error.c_str());
+  EXPECT_TRUE(flooded.closed || flooded.write_failed) << flooded.read_error;
+  if (flooded.closed) {
+    EXPECT_EQ(flooded.close_code, testing::kPolicyErrorCloseCode);
   }
-  EXPECT_LT(sent, 20000) << "20000 messages and still open";
+  EXPECT_LT(flooded.sent, 20000) << "20000 messages and still open";
   EXPECT_GE(webCounts()["flooding_clients_closed"].get<int>(), 1);
   // The other client's feed goes on.
   for (int k = 0; k < 10; ++k) ASSERT_TRUE(watcher.readMap()) << watcher.error();
 }
 
-// One client of the feed for the test below: counts the maps it reads (or reads nothing at all).
-struct FeedReader {
-  websocket::stream<beast::tcp_stream> ws;
-  beast::flat_buffer buffer;
-  bool reading = true;
-  bool connected = false;
-  long maps = 0;
-  std::string error;
-  explicit FeedReader(asio::io_context& io) : ws(io) {}
-};
-
 TEST_F(WebServer, TwentyClientsOneNeverReadingTheOthersKeepTheRateAndTheServerItsMemory) {
-  asio::io_context io;
-  std::vector<std::unique_ptr<FeedReader>> readers;
-  for (int k = 0; k < 20; ++k) readers.push_back(std::make_unique<FeedReader>(io));
-  FeedReader& stalled = *readers.front();
-  stalled.reading = false;
-  // The stalled client's socket takes almost nothing in, so that the server's writes to it stop
-  // within a second (its kernel buffers are full) and everything after waits in the server.
-  beast::error_code ignored;
-  tcp::socket& stalled_socket = beast::get_lowest_layer(stalled.ws).socket();
-  stalled_socket.open(tcp::v4(), ignored);
-  stalled_socket.set_option(asio::socket_base::receive_buffer_size(4096), ignored);
-  std::function<void(FeedReader&)> readOn = [&](FeedReader& r) {
-    r.ws.async_read(r.buffer, [&](beast::error_code ec, std::size_t) {
-      if (ec) {
-        r.error = ec.message();
-        return;
-      }
-      if (r.ws.got_binary()) ++r.maps;
-      r.buffer.clear();
-      readOn(r);
-    });
-  };
-  for (auto& reader : readers) {
-    FeedReader& r = *reader;
-    beast::get_lowest_layer(r.ws).async_connect(
-        testing::loopback(port()), [&](beast::error_code ec) {
-          if (ec) {
-            r.error = ec.message();
-            return;
-          }
-          r.ws.async_handshake("127.0.0.1:" + std::to_string(port()), "/ws",
-                               [&](beast::error_code shaken) {
-                                 if (shaken) {
-                                   r.error = shaken.message();
-                                   return;
-                                 }
-                                 r.connected = true;
-                                 if (r.reading) readOn(r);
-                               });
-        });
-  }
+  // The first client never reads, and its socket takes almost nothing in, so that the server's
+  // writes to it stop within a second (its kernel buffers are full) and everything after waits in
+  // the server (testing::FeedReaders).
+  testing::FeedReaders readers(port(), 20);
   const auto counts = [&] {
     std::vector<long> maps;
-    for (auto& r : readers) maps.push_back(r->maps);
+    for (std::size_t k = 0; k < readers.size(); ++k) maps.push_back(readers.maps(k));
     return maps;
   };
-  io.run_for(2s);  // connected, the stalled client's buffers filled
-  for (auto& r : readers) ASSERT_TRUE(r->connected) << r->error;
+  // The stalled client in the server's own account: the one written the fewest maps.
+  const auto stalledClient = [](const Json& web) {
+    Json found;
+    for (const Json& client : web["clients"]) {
+      if (found.is_null() || client["maps_sent"].get<long>() < found["maps_sent"].get<long>()) {
+        found = client;
+      }
+    }
+    return found;
+  };
+  readers.runFor(2s);
+  for (std::size_t k = 0; k < readers.size(); ++k) {
+    ASSERT_TRUE(readers.connected(k)) << readers.error(k);
+  }
+  // Until the stalled client's buffers are full: the same client, written no more maps over half
+  // a second. Two seconds do it on an idle machine; under TSan beside other tests they did not
+  // once, and another client still counted fewer.
+  Json web_before = webCounts();
+  for (int wait = 0; wait < 30; ++wait) {
+    readers.runFor(500ms);
+    const Json now = webCounts();
+    const Json was = stalledClient(web_before), is = stalledClient(now);
+    web_before = now;
+    if (!is.is_null() && !was.is_null() && was["id"] == is["id"] &&
+        was["maps_sent"] == is["maps_sent"]) {
+      break;
+    }
+  }
   const pid_t web_pid = web_->process.pid();
   const long memory_before = testing::residentKiB(web_pid);
-  const Json web_before = webCounts();
   const std::vector<long> before = counts();
   constexpr double kSeconds = 6;
-  io.run_for(std::chrono::milliseconds(static_cast<int>(kSeconds * 1000)));
+  readers.runFor(std::chrono::milliseconds(static_cast<int>(kSeconds * 1000)));
   const std::vector<long> after = counts();
   const long memory_after = testing::residentKiB(web_pid);
   const Json web_after = webCounts();
@@ -641,7 +585,7 @@ TEST_F(WebServer, TwentyClientsOneNeverReadingTheOthersKeepTheRateAndTheServerIt
 
   long least = after[1] - before[1], most = least;
   for (std::size_t k = 1; k < readers.size(); ++k) {
-    EXPECT_TRUE(readers[k]->error.empty()) << "client " << k << ": " << readers[k]->error;
+    EXPECT_TRUE(readers.error(k).empty()) << "client " << k << ": " << readers.error(k);
     least = std::min(least, after[k] - before[k]);
     most = std::max(most, after[k] - before[k]);
   }
@@ -656,17 +600,8 @@ TEST_F(WebServer, TwentyClientsOneNeverReadingTheOthersKeepTheRateAndTheServerIt
     EXPECT_GE(static_cast<double>(least) / kSeconds, 0.8 * daemon_rate)
         << "a client that reads fell behind the daemon";
   }
-  // The stalled client in the server's own account: nothing more written to it, the maps meant
-  // for it skipped (its one slot replaced), and the server's memory flat.
-  const auto stalledClient = [](const Json& web) {
-    Json found;
-    for (const Json& client : web["clients"]) {
-      if (found.is_null() || client["maps_sent"].get<long>() < found["maps_sent"].get<long>()) {
-        found = client;
-      }
-    }
-    return found;
-  };
+  // The stalled client: nothing more written to it, the maps meant for it skipped (its one slot
+  // replaced), and the server's memory flat.
   const Json stalled_before = stalledClient(web_before);
   const Json stalled_after = stalledClient(web_after);
   ASSERT_FALSE(stalled_after.is_null()) << web_after.dump();
@@ -684,7 +619,7 @@ TEST_F(WebServer, TwentyClientsOneNeverReadingTheOthersKeepTheRateAndTheServerIt
         << "occmap web's memory grew by " << memory_after - memory_before << " KiB in " << kSeconds
         << " s";
   }
-  EXPECT_EQ(stalled.maps, 0);
+  EXPECT_EQ(readers.maps(0), 0);
 }
 
 }  // namespace
