@@ -1,6 +1,5 @@
 #include "transport/map_codec.h"
 
-#define ZSTD_STATIC_LINKING_ONLY  // ZSTD_initStaticCCtx: a compression context that cannot allocate
 #include <algorithm>
 #include <cinttypes>
 #include <climits>
@@ -88,29 +87,15 @@ MapEncoder::MapEncoder(const MapGeometry& geometry, const std::vector<std::strin
   std::size_t data_capacity = cells;
   if (encoding == MapEncoding::kZstd) {
     data_capacity = ZSTD_compressBound(cells);
-    // A context in a fixed workspace never allocates: if the workspace were too small, compression
-    // would fail (and the warm-up below would throw), not grow. Sized for any source size.
-    const std::size_t workspace_bytes = ZSTD_estimateCCtxSize(kZstdLevel);
-    zstd_workspace_ = std::make_unique<std::uint64_t[]>((workspace_bytes + 7) / 8);
-    zstd_ = ZSTD_initStaticCCtx(zstd_workspace_.get(), (workspace_bytes + 7) / 8 * 8);
-    if (zstd_ == nullptr) throw std::runtime_error("MapEncoder: cannot set up zstd's context");
+    zstd_.emplace(kZstdLevel, cells, "MapEncoder");
   }
   message_.data.resize(data_capacity);
   message_.data_size = static_cast<std::int32_t>(data_capacity);
   output_.resize(static_cast<std::size_t>(message_.getEncodedSize()));
   message_.data_size = 0;
-  if (zstd_ != nullptr) {
-    // Warm up with a map of this size, so that any lazy set-up happens here and not in encode().
-    const std::vector<std::uint8_t> unseen(cells, static_cast<std::uint8_t>(CellState::kUnseen));
-    const std::size_t size = ZSTD_compressCCtx(zstd_, message_.data.data(), message_.data.size(),
-                                               unseen.data(), cells, kZstdLevel);
-    if (ZSTD_isError(size)) {
-      throw std::runtime_error(std::string("MapEncoder: zstd: ") + ZSTD_getErrorName(size));
-    }
-  }
 }
 
-MapEncoder::~MapEncoder() = default;  // zstd_ lives in zstd_workspace_: nothing else to free
+MapEncoder::~MapEncoder() = default;
 
 std::span<const std::uint8_t> MapEncoder::encode(const MapFrame& frame) {
   const MapGeometry& g = frame.map.geometry;
@@ -133,12 +118,10 @@ std::span<const std::uint8_t> MapEncoder::encode(const MapFrame& frame) {
     std::memcpy(message_.data.data(), frame.map.cells.data(), cells);
     message_.data_size = static_cast<std::int32_t>(cells);
   } else {
-    const std::size_t size = ZSTD_compressCCtx(zstd_, message_.data.data(), message_.data.size(),
-                                               frame.map.cells.data(), cells, kZstdLevel);
-    if (ZSTD_isError(size)) {
-      last_error_ = ZSTD_getErrorName(size);  // a static text
-      return {};
-    }
+    const std::size_t size = zstd_->compress(
+        message_.data.data(), message_.data.size(),
+        reinterpret_cast<const std::uint8_t*>(frame.map.cells.data()), cells, &last_error_);
+    if (size == 0) return {};
     message_.data_size = static_cast<std::int32_t>(size);
   }
   for (std::size_t k = 0; k < frame.cameras.size(); ++k) {

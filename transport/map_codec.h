@@ -17,9 +17,7 @@
 
 #include "core/map_frame.h"
 #include "core/map_geometry.h"
-
-struct ZSTD_CCtx_s;
-struct ZSTD_DCtx_s;
+#include "transport/zstd_frame.h"
 
 namespace occmap {
 
@@ -70,8 +68,7 @@ class MapEncoder {
   MapEncoding encoding_;
   occmap::map_frame_t message_{};
   std::vector<std::uint8_t> output_;
-  std::unique_ptr<std::uint64_t[]> zstd_workspace_;  // 8-byte aligned, as zstd requires
-  ZSTD_CCtx_s* zstd_ = nullptr;                      // lives inside zstd_workspace_
+  std::optional<ZstdCompressor> zstd_;  // for MapEncoding::kZstd
   const char* last_error_ = "";
 };
 

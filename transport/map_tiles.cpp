@@ -1,6 +1,5 @@
 #include "transport/map_tiles.h"
 
-#define ZSTD_STATIC_LINKING_ONLY  // ZSTD_initStaticCCtx: a compression context that cannot allocate
 #include <algorithm>
 #include <cinttypes>
 #include <climits>
@@ -107,23 +106,10 @@ MapTileEncoder::MapTileEncoder(const MapGeometry& geometry,
   message_.data_size = static_cast<std::int32_t>(tile_cells);
   output_.resize(static_cast<std::size_t>(message_.getEncodedSize()));
   message_.data_size = 0;
-  if (encoding == MapEncoding::kZstd) {
-    // A context in a fixed workspace never allocates (as MapEncoder's): sized for any source size.
-    const std::size_t workspace_bytes = ZSTD_estimateCCtxSize(kZstdLevel);
-    zstd_workspace_ = std::make_unique<std::uint64_t[]>((workspace_bytes + 7) / 8);
-    zstd_ = ZSTD_initStaticCCtx(zstd_workspace_.get(), (workspace_bytes + 7) / 8 * 8);
-    if (zstd_ == nullptr) throw std::runtime_error("MapTileEncoder: cannot set up zstd's context");
-    // Warm up with a whole tile, so that any lazy set-up happens here and not in encode().
-    std::fill(cells_.begin(), cells_.end(), static_cast<std::uint8_t>(CellState::kUnseen));
-    const std::size_t size = ZSTD_compressCCtx(zstd_, message_.data.data(), message_.data.size(),
-                                               cells_.data(), tile_cells, kZstdLevel);
-    if (ZSTD_isError(size)) {
-      throw std::runtime_error(std::string("MapTileEncoder: zstd: ") + ZSTD_getErrorName(size));
-    }
-  }
+  if (encoding == MapEncoding::kZstd) zstd_.emplace(kZstdLevel, tile_cells, "MapTileEncoder");
 }
 
-MapTileEncoder::~MapTileEncoder() = default;  // zstd_ lives in zstd_workspace_
+MapTileEncoder::~MapTileEncoder() = default;
 
 std::span<const std::uint8_t> MapTileEncoder::encode(const MapFrame& frame, int index) {
   const MapGeometry& g = frame.map.geometry;
@@ -159,9 +145,8 @@ std::span<const std::uint8_t> MapTileEncoder::encode(const MapFrame& frame, int 
   message_.data_size = static_cast<std::int32_t>(cells);
   if (encoding_ == MapEncoding::kZstd) {
     // Room for raw cells only: a tile zstd would not make smaller fails here and goes raw.
-    const std::size_t size =
-        ZSTD_compressCCtx(zstd_, message_.data.data(), cells, gathered, cells, kZstdLevel);
-    if (!ZSTD_isError(size) && size < cells) {
+    const std::size_t size = zstd_->compress(message_.data.data(), cells, gathered, cells);
+    if (size != 0 && size < cells) {
       message_.encoding = occmap::map_tile_t::ENCODING_ZSTD;
       message_.data_size = static_cast<std::int32_t>(size);
     } else {

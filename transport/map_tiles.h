@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -22,9 +23,7 @@
 #include "core/map_frame.h"
 #include "core/map_geometry.h"
 #include "transport/map_codec.h"
-
-struct ZSTD_CCtx_s;
-struct ZSTD_DCtx_s;
+#include "transport/zstd_frame.h"
 
 namespace occmap {
 
@@ -83,8 +82,7 @@ class MapTileEncoder {
   occmap::map_tile_t message_{};
   std::vector<std::uint8_t> cells_;  // one tile's cells, gathered row by row
   std::vector<std::uint8_t> output_;
-  std::unique_ptr<std::uint64_t[]> zstd_workspace_;  // 8-byte aligned, as zstd requires
-  ZSTD_CCtx_s* zstd_ = nullptr;                      // lives inside zstd_workspace_
+  std::optional<ZstdCompressor> zstd_;  // for MapEncoding::kZstd
   const char* last_error_ = "";
 };
 

@@ -13,6 +13,7 @@
 #include <occmap/merge_status_t.hpp>
 
 #include "transport/bus.h"
+#include "transport/rate_window.h"
 #include "transport/status_publisher.h"
 
 namespace occmap {
@@ -67,17 +68,8 @@ class MergeStatusPublisher {
   const occmap::merge_status_t& last() const { return status_; }
 
  private:
-  // As StatusPublisher: a fixed ring of samples, the oldest at `oldest_`.
-  struct Sample {
-    std::int64_t ns = 0;
-    std::uint64_t published = 0;
-    std::vector<std::uint64_t> maps;
-  };
-  static constexpr std::size_t kRateSamples = 5;
-
   std::string channel_;
-  std::vector<Sample> samples_;
-  std::size_t oldest_ = 0;
+  RateWindow rates_;
   occmap::merge_status_t status_{};
   std::vector<std::uint8_t> buffer_;
   std::uint64_t errors_ = 0;

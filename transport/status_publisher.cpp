@@ -13,7 +13,7 @@ StatusPublisher::StatusPublisher(std::string status_channel, std::size_t cameras
       control_status_channel_(controlStatusChannel(status_channel_)),
       lighting_status_channel_(lightingStatusChannel(status_channel_)),
       view_status_channel_(viewStatusChannel(status_channel_)),
-      samples_(kRateSamples, Sample{now_ns, 0, std::vector<std::uint64_t>(cameras)}) {
+      rates_(cameras, now_ns) {
   status_.cameras.resize(cameras);
   for (occmap::camera_status_t& camera : status_.cameras) camera.last_error.reserve(kMaxErrorText);
 }
@@ -21,8 +21,6 @@ StatusPublisher::StatusPublisher(std::string status_channel, std::size_t cameras
 void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t request_id,
                               std::int64_t now_ns) {
   const std::size_t cameras = report.cameras.size();
-  const Sample& oldest = samples_[oldest_];
-  const double window_s = std::max(1e-3, static_cast<double>(now_ns - oldest.ns) / 1e9);
   status_.utime = hostTimeMicroseconds();
   status_.request_id = request_id;
   status_.hostname = report.hostname;
@@ -31,7 +29,7 @@ void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t
   status_.uptime_s = report.uptime_s;
   status_.maps_published = static_cast<std::int64_t>(report.maps_published);
   status_.publish_errors = static_cast<std::int64_t>(report.publish_errors + errors_);
-  status_.maps_per_s = static_cast<double>(report.maps_published - oldest.published) / window_s;
+  status_.maps_per_s = rates_.mapsPerSecond(report.maps_published, now_ns);
   status_.fusion_p50_ms = report.fusion_p50_ms;
   status_.fusion_p99_ms = report.fusion_p99_ms;
   status_.num_cameras = static_cast<std::int16_t>(cameras);
@@ -44,7 +42,7 @@ void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t
     s.state = static_cast<std::int8_t>(c.state);
     s.frames_in = static_cast<std::int64_t>(c.frames_in);
     s.frames_dropped = static_cast<std::int64_t>(c.frames_dropped);
-    s.fps = static_cast<double>(c.frames_in - oldest.frames[k]) / window_s;
+    s.fps = k < rates_.parts() ? rates_.perSecond(k, c.frames_in, now_ns) : 0.0;
     s.last_capture_utime = c.last_capture_utime;
     s.frames_incomplete = c.frames_incomplete;
     s.missing_packets = c.missing_packets;
@@ -54,12 +52,8 @@ void StatusPublisher::publish(Bus& bus, const DaemonReport& report, std::int64_t
     s.last_error = c.last_error;
   }
   if (request_id < 0) {
-    // The oldest sample makes way for this one (the ring starts with copies of the start).
-    Sample& sample = samples_[oldest_];
-    sample.ns = now_ns;
-    sample.published = report.maps_published;
-    for (std::size_t k = 0; k < cameras; ++k) sample.frames[k] = report.cameras[k].frames_in;
-    oldest_ = (oldest_ + 1) % kRateSamples;
+    rates_.moveOn(now_ns, report.maps_published,
+                  [&](std::size_t k) { return k < cameras ? report.cameras[k].frames_in : 0; });
   }
   const auto encoded = static_cast<std::size_t>(status_.getEncodedSize());
   // Room for the longest status these cameras can make (every error text at its longest), made

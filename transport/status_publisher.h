@@ -18,6 +18,7 @@
 
 #include "core/map_frame.h"
 #include "transport/bus.h"
+#include "transport/rate_window.h"
 
 namespace occmap {
 
@@ -103,21 +104,11 @@ class StatusPublisher {
   std::uint64_t errors() const { return errors_; }
 
  private:
-  // Rates are measured over the last few status periods (one alone is too short to be steady): a
-  // fixed ring of samples, the oldest at `oldest_`, filled in place.
-  struct Sample {
-    std::int64_t ns = 0;
-    std::uint64_t published = 0;
-    std::vector<std::uint64_t> frames;
-  };
-  static constexpr std::size_t kRateSamples = 5;
-
   std::string status_channel_;
   std::string control_status_channel_;
   std::string lighting_status_channel_;
   std::string view_status_channel_;
-  std::vector<Sample> samples_;
-  std::size_t oldest_ = 0;
+  RateWindow rates_;
   occmap::status_t status_{};
   occmap::control_status_t control_status_{};
   occmap::lighting_status_t lighting_status_{};

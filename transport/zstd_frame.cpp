@@ -1,6 +1,12 @@
 #include "transport/zstd_frame.h"
 
+#define ZSTD_STATIC_LINKING_ONLY  // ZSTD_initStaticCCtx: a compression context that cannot allocate
+#include <stdexcept>
+#include <vector>
+
 #include <zstd.h>
+
+#include "core/map_geometry.h"
 
 namespace occmap {
 
@@ -37,6 +43,35 @@ std::string decompressZstdFrame(ZSTD_DCtx_s* context, const std::uint8_t* frame,
            std::to_string(expected);
   }
   return "";
+}
+
+ZstdCompressor::ZstdCompressor(int level, std::size_t warm_up_bytes, const char* owner)
+    : level_(level) {
+  const std::size_t bytes = ZSTD_estimateCCtxSize(level);
+  workspace_ = std::make_unique<std::uint64_t[]>((bytes + 7) / 8);
+  context_ = ZSTD_initStaticCCtx(workspace_.get(), (bytes + 7) / 8 * 8);
+  if (context_ == nullptr) {
+    throw std::runtime_error(std::string(owner) + ": cannot set up zstd's context");
+  }
+  // Unseen cells, as a map before any camera has said anything.
+  const std::vector<std::uint8_t> unseen(warm_up_bytes,
+                                         static_cast<std::uint8_t>(CellState::kUnseen));
+  std::vector<std::uint8_t> out(ZSTD_compressBound(warm_up_bytes));
+  const char* error = "";
+  if (warm_up_bytes > 0 &&
+      compress(out.data(), out.size(), unseen.data(), unseen.size(), &error) == 0) {
+    throw std::runtime_error(std::string(owner) + ": zstd: " + error);
+  }
+}
+
+std::size_t ZstdCompressor::compress(std::uint8_t* out, std::size_t capacity,
+                                     const std::uint8_t* in, std::size_t size, const char** error) {
+  const std::size_t written = ZSTD_compressCCtx(context_, out, capacity, in, size, level_);
+  if (ZSTD_isError(written)) {
+    if (error != nullptr) *error = ZSTD_getErrorName(written);
+    return 0;
+  }
+  return written;
 }
 
 }  // namespace occmap
