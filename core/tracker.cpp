@@ -102,11 +102,16 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
         !state.track.confirmed && time_s - state.first_s > settings_.confirm_within_s;
     return time_s - state.last_s > settings_.lost_after_s || unconfirmed_too_long;
   });
+  const double apart2 = settings_.confirm_apart_m * settings_.confirm_apart_m;
   for (State& state : states_) {
-    if (!state.track.confirmed && state.hits >= settings_.confirm_hits) {
-      state.track.confirmed = true;
-      state.track.id = next_id_++;
-    }
+    if (state.track.confirmed || state.hits < settings_.confirm_hits) continue;
+    const bool twice = std::any_of(states_.begin(), states_.end(), [&](const State& other) {
+      return other.track.confirmed &&
+             (other.x.head<2>() - state.x.head<2>()).squaredNorm() < apart2;
+    });
+    if (twice) continue;
+    state.track.confirmed = true;
+    state.track.id = next_id_++;
   }
   // New tentative tracks, at rest where they were found, their velocity as uncertain as a
   // walk (2 m/s).
