@@ -153,14 +153,18 @@ class Hub {
   std::shared_ptr<const HeldMap> pictured_map_;
   SharedBytes pictured_png_;
   std::thread network_thread_;
-  asio::thread_pool pictures_{1};
-  // Destroyed before the pool and the members above: its handlers own the sessions, whose
-  // destructors leave() the hub. The timers and the acceptor go before it.
+  // Destroyed before the members above: its handlers own the sessions, whose destructors leave()
+  // the hub. The timers and the acceptor go before it.
   asio::io_context io_{1};
   tcp::acceptor acceptor_{io_};
   asio::steady_timer daemons_timer_{io_};
   asio::steady_timer tick_timer_{io_};
   asio::steady_timer accept_timer_{io_};
+  // Destroyed first: a picture asked for but not drawn when the server stops holds its answer,
+  // which owns its session, whose socket is io_'s. Destroyed after io_ (as it was), the session
+  // closed its socket in a freed service (TSan: heap-use-after-free at `occmap web`'s exit, with a
+  // picture request pending, web_browser_test's server restart).
+  asio::thread_pool pictures_{1};
 };
 
 // One HTTP connection: requests read one after another (keep-alive), each answered; a WebSocket
