@@ -597,7 +597,15 @@ bool FootprintDetector::markExpected(std::span<const Eigen::Vector2d> expected) 
   const double reach2 = settings_.expected_reach_m * settings_.expected_reach_m;
   const int steps = static_cast<int>(std::ceil(settings_.expected_reach_m / step_));
   bool any = false;
+  const double map_width_m = map_.width * map_.cell_size_m;
+  const double map_height_m = map_.height * map_.cell_size_m;
   for (const Eigen::Vector2d& at : expected) {
+    // A track coasting off the map (or a prediction gone wrong) has no candidate near it.
+    const double x = at.x() - map_.origin_x_m, y = at.y() - map_.origin_y_m;
+    if (!(x > -settings_.expected_reach_m && x < map_width_m + settings_.expected_reach_m &&
+          y > -settings_.expected_reach_m && y < map_height_m + settings_.expected_reach_m)) {
+      continue;
+    }
     // The grid's place i along an axis is at origin + (i + 1/2) step.
     const int row = static_cast<int>(std::lround((at.y() - map_.origin_y_m) / step_ - 0.5));
     const int column = static_cast<int>(std::lround((at.x() - map_.origin_x_m) / step_ - 0.5));

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <random>
 #include <vector>
@@ -153,7 +154,9 @@ TEST(Footprints, NoOneIsFoundWhereOnlyATrackerExpectsThem) {
   FootprintDetector detector(room.map, room.cameras);
   const std::vector<FloorPoint> one = {{3.0, 3.0}};
   std::vector<std::vector<std::uint8_t>> masks;
-  const std::vector<Eigen::Vector2d> expected = {{1.5, 1.5}, {4.5, 2.0}, {2.0, 4.5}, {3.0, 3.05}};
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Eigen::Vector2d> expected = {{1.5, 1.5},  {4.5, 2.0},  {2.0, 4.5},
+                                                 {3.0, 3.05}, {-1e300, 7}, {nan, 2.0}};
   const std::vector<Detection>& found = detect(detector, room, one, masks, 99, expected);
   ASSERT_EQ(found.size(), 1u);
   EXPECT_LT(std::hypot(found[0].x_m - 3.0, found[0].y_m - 3.0), 0.15);
