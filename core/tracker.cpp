@@ -102,18 +102,18 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
         !state.track.confirmed && time_s - state.first_s > settings_.confirm_within_s;
     return time_s - state.last_s > settings_.lost_after_s || unconfirmed_too_long;
   });
-  // Confirmed against the tracks confirmed on earlier maps: two people who appear together are
-  // both confirmed, whatever the distance; a double appears beside what it doubles.
+  // Confirmed against the tracks confirmed on earlier maps (their ids come before this map's):
+  // two people who appear together are both confirmed, whatever the distance; a double appears
+  // beside what it doubles.
   const double apart2 = settings_.confirm_apart_m * settings_.confirm_apart_m;
+  const std::uint32_t first_new_id = next_id_;
   for (State& state : states_) {
-    state.confirming = !state.track.confirmed && state.hits >= settings_.confirm_hits &&
-                       std::none_of(states_.begin(), states_.end(), [&](const State& other) {
-                         return other.track.confirmed &&
-                                (other.x.head<2>() - state.x.head<2>()).squaredNorm() < apart2;
-                       });
-  }
-  for (State& state : states_) {
-    if (!state.confirming) continue;
+    if (state.track.confirmed || state.hits < settings_.confirm_hits) continue;
+    const bool twice = std::any_of(states_.begin(), states_.end(), [&](const State& other) {
+      return other.track.confirmed && other.track.id < first_new_id &&
+             (other.x.head<2>() - state.x.head<2>()).squaredNorm() < apart2;
+    });
+    if (twice) continue;
     state.track.confirmed = true;
     state.track.id = next_id_++;
   }

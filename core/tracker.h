@@ -75,7 +75,6 @@ class Tracker {
     double first_s = 0.0;  // first detection
     double last_s = 0.0;   // last detection
     int hits = 0;
-    bool confirming = false;  // update()'s: confirmed on this map
   };
   void predict(State& state, double dt) const;
   void correct(State& state, const Detection& detection, double time_s) const;

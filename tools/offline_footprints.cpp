@@ -94,8 +94,8 @@ void OfflineFootprints::add(std::uint64_t map, std::span<const std::uint8_t* con
     }
     if (tracker_) {
       const std::vector<Track>& tracks = tracker_->update(detected, time_s);
-      for (const Track& t : tracks) {
-        if (!tracking_) break;  // followed only for the detector's sake
+      // Without a tracks file, followed only for the detector's sake.
+      for (const Track& t : tracking_ ? std::span<const Track>(tracks) : std::span<const Track>()) {
         followed_.push_back({t.x_m, t.y_m});
         followed_ids_.push_back(t.id);
         char row[160];
