@@ -4,7 +4,10 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -224,6 +227,56 @@ TEST(DetectCommand, WritesTheDetectionsOfEveryMapAndScoresThemAgainstTheSimulato
       {kOccmap, "detect", "--config", config, "--out", (folder / "no" / "d.csv").string()});
   EXPECT_EQ(nowhere.exit_code, 2);
   EXPECT_NE(nowhere.err.find("cannot write the detections file"), std::string::npos) << nowhere.err;
+}
+
+// occmap detect --truth: the simulated scene's objects on each map, as the truth occmap score
+// reads, so that a user's own scoring (or occmap score) sees what the simulator's was; and a truth
+// asked of cameras that are not simulated is refused before anything runs.
+TEST(DetectCommand, WritesTheScenesTruthThatOccmapScoreScoresAsDetectDid) {
+  TemporaryFolder folder;
+  const fs::path out = folder / "detections.csv", truth = folder / "truth.csv";
+  const testing::CommandResult result =
+      runCommand({kOccmap, "detect", "--config", OCCMAP_SOURCE_DIR "/examples/sim-room.yaml",
+                  "--out", out.string(), "--truth", truth.string(), "--frames", "90"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  std::ifstream in(truth);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "frame,x_m,y_m,id,kind");
+  // The room's two people, two chairs and robot on each of the 90 maps, in the scene's order
+  // (its two people pass close by each other from the 42nd: some are missed).
+  std::map<int, std::vector<std::string>> kinds;
+  while (std::getline(in, line)) {
+    const std::size_t comma = line.find(',');
+    kinds[std::stoi(line.substr(0, comma))].push_back(line.substr(line.rfind(',') + 1));
+  }
+  ASSERT_EQ(kinds.size(), 90u);
+  EXPECT_EQ(kinds.begin()->first, 0);
+  for (const auto& [frame, objects] : kinds) {
+    EXPECT_EQ(objects, (std::vector<std::string>{"person", "person", "chair", "chair", "robot"}))
+        << "frame " << frame;
+  }
+  // occmap score, against that truth, gives the MODA occmap detect printed.
+  const nlohmann::json s =
+      scoreJson({"--truth", truth.string(), "--detections", out.string(), "--frames", "90"});
+  constexpr std::string_view kModa = "people among them (0.5 m gate): MODA ";
+  const std::size_t at = result.out.find(kModa);
+  ASSERT_NE(at, std::string::npos) << result.out;
+  const double printed = std::stod(result.out.substr(at + kModa.size()));
+  EXPECT_NEAR(100 * s["moda"].get<double>(), printed, 0.006) << result.out;
+  EXPECT_LT(printed, 100.0) << "a case where the two scores could differ";
+
+  const fs::path epfl = kData / "epfl-terrace/masks";
+  if (!fs::exists(epfl)) {
+    GTEST_SKIP() << "EPFL Terrace data not found at " << epfl.string()
+                 << ": the refusal for cameras that are not simulated is not checked";
+  }
+  const testing::CommandResult refused =
+      runCommand({kOccmap, "detect", "--config", OCCMAP_SOURCE_DIR "/examples/epfl-terrace.yaml",
+                  "--out", (folder / "d.csv").string(), "--truth", (folder / "t.csv").string()});
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("only of a simulated scene"), std::string::npos) << refused.err;
+  EXPECT_FALSE(fs::exists(folder / "t.csv"));
 }
 
 }  // namespace

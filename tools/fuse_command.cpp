@@ -39,6 +39,7 @@ struct FuseOptions {
   std::string snapshot;
   std::string detections;  // CSV of the footprints found on each map (occmap detect)
   std::string tracks;      // CSV of the people followed (occmap track)
+  std::string truth;       // CSV of the simulated scene's objects (--truth)
   const char* command = "fuse";
 };
 
@@ -189,7 +190,7 @@ int run(const FuseOptions& o) {
   for (std::size_t k = 0; k < cameras.size(); ++k) {
     changed[k].assign(changedMaskBytes(cameras[k].source->width(), cameras[k].source->height()), 0);
   }
-  OfflineFootprints footprints(config, cameras, o.detections, o.tracks);
+  OfflineFootprints footprints(config, cameras, o.detections, o.tracks, o.truth);
   std::vector<ChangedPixels> changed_pixels;
   for (const RigCamera& camera : cameras)
     changed_pixels.emplace_back(camera.lighting, *camera.camera);
@@ -445,6 +446,10 @@ Command addTrackCommand(CLI::App& app) {
       "  occmap track --config examples/sim-room.yaml --out tracks.csv --frames 300");
   command->add_option("--config", options->config, "Config file (YAML; see README)")->required();
   command->add_option("--out", options->tracks, "Tracks CSV to write")->required();
+  command->add_option("--truth", options->truth,
+                      "With simulated cameras: also write the scene's objects on each map as a "
+                      "truth CSV for occmap score (frame,x_m,y_m,id,kind; id: the object's, kind: "
+                      "person, chair, robot or box)");
   command->add_option("--frames", options->frames, "Stop after this many frame sets")
       ->check(CLI::PositiveNumber);
   return [options] { return run(*options); };
@@ -469,6 +474,10 @@ Command addDetectCommand(CLI::App& app) {
       "  occmap detect --config examples/epfl-terrace.yaml --out detections.csv");
   command->add_option("--config", options->config, "Config file (YAML; see README)")->required();
   command->add_option("--out", options->detections, "Detections CSV to write")->required();
+  command->add_option("--truth", options->truth,
+                      "With simulated cameras: also write the scene's objects on each map as a "
+                      "truth CSV for occmap score (frame,x_m,y_m,id,kind; id: the object's, kind: "
+                      "person, chair, robot or box)");
   command->add_option("--frames", options->frames, "Stop after this many frame sets")
       ->check(CLI::PositiveNumber);
   return [options] { return run(*options); };

@@ -24,10 +24,11 @@ void openCsv(std::ofstream& file, const std::string& path, const char* what, con
 
 OfflineFootprints::OfflineFootprints(const Config& config, const std::vector<RigCamera>& cameras,
                                      const std::string& detections_csv,
-                                     const std::string& tracks_csv)
+                                     const std::string& tracks_csv, const std::string& truth_csv)
     : config_(config),
       detections_path_(detections_csv),
       tracks_path_(tracks_csv),
+      truth_path_(truth_csv),
       posed_(posedCameras(cameras)),
       zones_(config.footprints.hidden_floor_unseen &&
                      (!detections_csv.empty() || !tracks_csv.empty())
@@ -43,6 +44,15 @@ OfflineFootprints::OfflineFootprints(const Config& config, const std::vector<Rig
     openCsv(tracks_file_, tracks_csv, "tracks file",
             "frame,track_id,x_m,y_m,vx_m_s,vy_m_s,area_m2");
     tracking_ = true;
+  }
+  if (!truth_csv.empty()) {
+    if (cameras.front().sim == nullptr) {
+      throw InputError(truth_csv, 0, "--truth",
+                       "a truth can be written only of a simulated scene (sources sim://...); "
+                       "for EPFL's data use occmap truth --epfl");
+    }
+    // The scene's objects keep their order, so an object's index is its identity.
+    openCsv(truth_file_, truth_csv, "truth file", "frame,x_m,y_m,id,kind");
   }
   if (cameras.front().sim != nullptr) {
     frame_s_ = 1.0 / cameras.front().sim->fps();
@@ -112,6 +122,18 @@ void OfflineFootprints::add(std::uint64_t map, std::span<const std::uint8_t* con
     ++zone_tally_[z].maps[static_cast<int>(zones[z].state)];
     zone_tally_[z].changes += map > 0 && zones[z].state != zone_states_[z] ? 1 : 0;
     zone_states_[z] = zones[z].state;
+  }
+  if (objects != nullptr && truth_file_.is_open()) {
+    for (std::size_t i = 0; i < objects->size(); ++i) {
+      const sim::SceneObject& object = (*objects)[i];
+      char row[128];
+      std::snprintf(row, sizeof row, "%llu,%.3f,%.3f,%zu,%s\n",
+                    static_cast<unsigned long long>(map), object.solid.centre.x(),
+                    object.solid.centre.y(), i,
+                    std::string(sim::objectKindName(object.kind)).c_str());
+      truth_file_ << row;
+      ++truth_rows_;
+    }
   }
   if (objects != nullptr) scoreAgainst(*objects);
 }
@@ -191,6 +213,12 @@ bool OfflineFootprints::finishFiles(const char* command, std::uint64_t maps, dou
     return false;
   };
   const double rate = static_cast<double>(maps) / seconds;
+  if (truth_file_.is_open()) {
+    if (!close(truth_file_, truth_path_)) return false;
+    std::printf("wrote the scene's %llu objects on %llu maps to %s (score with --frames %llu)\n",
+                static_cast<unsigned long long>(truth_rows_), static_cast<unsigned long long>(maps),
+                truth_path_.c_str(), static_cast<unsigned long long>(maps));
+  }
   if (tracking_) {
     if (!close(tracks_file_, tracks_path_)) return false;
     std::printf("wrote %llu track rows on %llu maps to %s (%.1f maps/s, %.3f s between maps)\n",

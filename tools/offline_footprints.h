@@ -24,9 +24,12 @@ namespace occmap::tools {
 class OfflineFootprints {
  public:
   // `detections_csv`, `tracks_csv`: the files to write, or empty for none (then nothing is
-  // detected). A file that cannot be written is an InputError, before any map is made.
+  // detected). `truth_csv`: where to write the simulated scene's objects on each map as a truth
+  // occmap score reads (frame,x_m,y_m,id,kind), or empty. A file that cannot be written, or a
+  // truth asked of cameras that are not simulated, is an InputError, before any map is made.
   OfflineFootprints(const Config& config, const std::vector<RigCamera>& cameras,
-                    const std::string& detections_csv, const std::string& tracks_csv);
+                    const std::string& detections_csv, const std::string& tracks_csv,
+                    const std::string& truth_csv = {});
 
   // One map: its frame set's index, the masks it was fused from, its cells; with the simulator,
   // the scene's objects at its time (nullptr otherwise).
@@ -53,8 +56,8 @@ class OfflineFootprints {
   void scoreAgainst(const std::vector<sim::SceneObject>& objects);
 
   const Config& config_;
-  std::string detections_path_, tracks_path_;
-  std::ofstream detections_file_, tracks_file_;
+  std::string detections_path_, tracks_path_, truth_path_;
+  std::ofstream detections_file_, tracks_file_, truth_file_;
   // Tracks and zones: the time between frame sets is 1 / fps of the first camera (the scene's for
   // the simulator, the config's `fps` for files://, 30 lacking one): off-line, frames are read as
   // fast as they go, so their read times are not their capture times.
@@ -75,7 +78,7 @@ class OfflineFootprints {
   std::vector<ZoneState> zone_states_;
   std::vector<ZoneTally> zone_tally_;
   bool scored_ = false;  // whether any map had the scene's objects
-  std::uint64_t detections_ = 0, track_rows_ = 0;
+  std::uint64_t detections_ = 0, track_rows_ = 0, truth_rows_ = 0;
   // This frame set's detections and tracks, and the scene's objects (people among them).
   std::vector<FloorPoint> found_, followed_, people_, things_;
   std::vector<Detection> detected_;
