@@ -50,7 +50,7 @@ constexpr std::string_view kFootprintKeys[] = {
     "min_cameras",         "enabled",          "object_height_m",
     "object_min_support",  "object_min_fresh", "settle_reach_m",
     "hidden_floor_unseen", "expected_reach_m", "expected_fresh_share",
-    "expected_within_s"};
+    "expected_within_s",   "two_view_min_own"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
@@ -489,6 +489,8 @@ class ConfigReader {
         footprints.object_min_support = real(entry.value, 0.0, true, 1.0, "");
       } else if (entry.key == "object_min_fresh") {
         footprints.object_min_fresh = real(entry.value, 0.0, true, 1.0, "");
+      } else if (entry.key == "two_view_min_own") {
+        footprints.two_view_min_own = real(entry.value, 0.0, false, 1.0, "");
       } else if (entry.key == "settle_reach_m") {
         footprints.settle_reach_m = real(entry.value, 0.0, false, 5.0, " m");
       } else if (entry.key == "hidden_floor_unseen") {

@@ -561,8 +561,11 @@ const std::vector<Detection>& FootprintDetector::detect(
     // else's cover) must have changed as much as a person fills a box: what is left of a ghost
     // once the people around it have settled is mostly the floor between them (EPFL Terrace's
     // crowd, settled: false positives 55 -> 47, misses 51 -> 52).
+    // Where two cameras alone see them, more of it (ghosts are made where two views' rays meet).
     keepOnly([&](std::size_t i) {
-      return chosen_[i] < first_low_ && fit(chosen_[i]).own < settings_.min_support;
+      if (chosen_[i] >= first_low_) return false;
+      const Fit f = fit(chosen_[i]);
+      return f.own < (f.cameras <= 2 ? settings_.two_view_min_own : settings_.min_support);
     });
   }
   return detections_;
@@ -570,7 +573,7 @@ const std::vector<Detection>& FootprintDetector::detect(
 
 template <class Fails>
 void FootprintDetector::keepOnly(Fails fails) {
-  if (detections_.size() < 2) return;
+  if (detections_.empty()) return;
   kept_.assign(detections_.size(), 1);
   for (std::size_t i = detections_.size(); i-- > 0;) {
     forgetExplained();

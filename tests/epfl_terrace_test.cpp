@@ -211,17 +211,18 @@ TEST(EpflTerrace, PeopleAreFoundAsWellAsPomFindsThemInTheCrowd) {
                  << " (the shared reference data sits next to the repository as ../shared/data)";
   }
   TemporaryFolder folder;
-  // Measured 2026-12-06: the sample 75.0 % MODA (7 of 8 people, 1 false positive); the crowd
-  // MODA 79.5 %, MODP 64.9 %, precision 90.1 %, recall 89.2 % (before people settled beside each
-  // other: 73.9 %, 61.8 %, 86.6 %, 87.3 %). The target on further moments: MODA 70 % with
-  // precision 90 %.
+  // Measured 2026-12-07: the sample 87.5 % MODA (7 of 8 people, no false positive); the crowd
+  // MODA 81.3 %, MODP 64.8 %, precision 94.8 %, recall 86.1 % (before places two cameras alone
+  // see were judged more strictly, two_view_min_own: 79.5 %, 64.9 %, 90.1 %, 89.2 %; before
+  // people settled beside each other: 73.9 %, 61.8 %, 86.6 %, 87.3 %). The target on
+  // further moments: MODA 70 % with precision 90 %, which the precision here holds with a margin.
   const nlohmann::json sample = detectAndScore(folder, "epfl-terrace", 10);
   EXPECT_GE(sample["recall"].get<double>(), 0.75);
   const nlohmann::json crowd = detectAndScore(folder, "epfl-terrace-crowd", 94);
   EXPECT_EQ(crowd["people"].get<int>(), 482);
   EXPECT_GE(crowd["moda"].get<double>(), 0.70) << "POM scores 0.660 here";
   EXPECT_GE(crowd["modp"].get<double>(), 0.592) << "POM's";
-  EXPECT_GE(crowd["precision"].get<double>(), 0.90);
+  EXPECT_GE(crowd["precision"].get<double>(), 0.93);
   EXPECT_GE(crowd["recall"].get<double>(), 0.80);
 }
 

@@ -176,6 +176,19 @@ TEST(Footprints, NeedsTwoCamerasToTellAPersonFromTheFloorBehind) {
   EXPECT_GT(found[0].area_m2, 0.2) << "the map is all occupied: the whole box's footprint";
   // A camera without a frame says nothing; the other three still find the person.
   EXPECT_EQ(detect(detector, room, one, masks, /*left_out=*/2).size(), 1u);
+  // Two cameras alone find them: a person fills their box well past the bar where two views are
+  // all there is (two_view_min_own), which a higher bar shows is what is judged.
+  const std::span<const Camera> two(room.cameras.data(), 2);
+  FootprintDetector pair(room.map, two);
+  const std::vector<std::uint8_t> first = render(room.cameras[0], one);
+  const std::vector<std::uint8_t> second = render(room.cameras[1], one);
+  const std::uint8_t* both[] = {first.data(), second.data()};
+  const std::vector<CellState> all_occupied(room.map.cellCount(), CellState::kOccupied);
+  ASSERT_EQ(pair.detect(both, all_occupied).size(), 1u);
+  FootprintSettings strict;
+  strict.two_view_min_own = 0.99;
+  FootprintDetector strict_pair(room.map, two, strict);
+  EXPECT_TRUE(strict_pair.detect(both, all_occupied).empty());
   // One camera alone cannot place anyone.
   FootprintDetector single(room.map, std::span<const Camera>(room.cameras.data(), 1));
   const std::vector<std::uint8_t> mask = render(room.cameras[0], one);
