@@ -87,8 +87,8 @@ struct FootprintSettings {
   // EPFL Terrace's crowd, settled: at places two cameras see, 26 people found and 31 ghosts; at
   // places three or four see, 404 and 16. Twice min_support: MODA 79.5 -> 81.3 %, precision
   // 90.2 -> 94.8 %, recall 89.2 -> 86.1 % (0.3: 80.9 / 93.5 %; no one found there at all: 80.7 /
-  // 96.0 %); the simulated rooms, where every place is seen by three cameras or more, unchanged
-  // (docs/detection.md, step 7).
+  // 96.0 %); the simulated rooms unchanged to the digit (their people and objects are found where
+  // three or four cameras see, or fill their boxes well past the bar; docs/detection.md, step 7).
   double two_view_min_own = 0.4;
   // The people a tracker follows (Tracker::expectedAt) are explained first where it expects
   // them: the greedy explanation runs over the candidates within expected_reach_m of such a place

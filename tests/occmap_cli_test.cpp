@@ -465,6 +465,17 @@ TEST(OccmapCoverage, DrawsWhichCamerasSeeEachCell) {
     EXPECT_NE(result.out.find(name), std::string::npos) << result.out;
   }
   EXPECT_NE(result.out.find("by 2+:"), std::string::npos) << result.out;
+  // The cells seen, by how many cameras see them: 1 to 4, every one counted once.
+  const std::size_t exactly = result.out.find("of the cells seen, seen by exactly ");
+  ASSERT_NE(exactly, std::string::npos) << result.out;
+  double shares = 0.0;
+  std::size_t at = exactly;
+  for (int n = 1; n <= 4; ++n) {
+    at = result.out.find(std::to_string(n) + ": ", at);
+    ASSERT_NE(at, std::string::npos) << result.out;
+    shares += std::stod(result.out.substr(at + 3));
+  }
+  EXPECT_NEAR(shares, 100.0, 0.25) << result.out;
   const cv::Mat picture = cv::imread((folder / "coverage.png").string());
   EXPECT_GE(picture.cols, 512);
 }

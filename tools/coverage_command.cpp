@@ -79,6 +79,18 @@ int run(const CoverageOptions& o) {
                 100.0 * static_cast<double>(at_least[2]) / total,
                 100.0 * static_cast<double>(counts[0]) / total, column_height);
   std::printf("%s\n", summary);
+  // How many see each cell seen: where two alone do, rays through two people's silhouettes meet
+  // where no one stands, and the detector asks more of a person found there.
+  if (at_least[1] > 0) {
+    std::printf("of the cells seen, seen by exactly");
+    for (std::size_t n = 1; n <= tables.size(); ++n) {
+      std::printf("%s %zu: %.1f %%", n == 1 ? "" : ",", n,
+                  100.0 * static_cast<double>(counts[n]) / static_cast<double>(at_least[1]));
+    }
+    std::printf(
+        " (people found where no more than two cameras see must fill more of their "
+        "boxes: footprints.two_view_min_own, docs/detection.md)\n");
+  }
   // The summary in two lines, split after the first comma, so that it fits a small map's width.
   const std::string text(summary);
   const std::size_t split = text.find(", ") + 2;
