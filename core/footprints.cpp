@@ -562,10 +562,12 @@ const std::vector<Detection>& FootprintDetector::detect(
     // once the people around it have settled is mostly the floor between them (EPFL Terrace's
     // crowd, settled: false positives 55 -> 47, misses 51 -> 52).
     // Where two cameras alone see them, more of it (ghosts are made where two views' rays meet).
+    // Counted by the rig's geometry, not by the frames that came: a frame set short of a camera
+    // under load must not make everyone harder to find.
     keepOnly([&](std::size_t i) {
       if (chosen_[i] >= first_low_) return false;
       const Fit f = fit(chosen_[i]);
-      return f.own < (f.cameras <= 2 ? settings_.two_view_min_own : settings_.min_support);
+      return f.own < (f.in_view <= 2 ? settings_.two_view_min_own : settings_.min_support);
     });
   }
   return detections_;

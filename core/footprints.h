@@ -222,7 +222,8 @@ class FootprintDetector {
     double own = 0.0;      // the share changed of the open pixels, each camera's counted as
                            // shares of its box (0 where none is open)
     double support = 0.0;  // as Evidence's
-    int cameras = 0;
+    int cameras = 0;       // that see the place and have a frame in this set
+    int in_view = 0;       // whose images have the place, with a frame in this set or not
   };
   Fit fit(std::size_t candidate) const;
   // The changed pixels of the candidate's boxes become explained.

@@ -23,7 +23,9 @@ FootprintDetector::Fit FootprintDetector::fit(std::size_t c) const {
   double own_weight = 0.0;
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     const Box& box = boxes_[candidate.boxes + k];
-    if (box.u0 == kNotSeen || changed_[k] == nullptr) continue;
+    if (box.u0 == kNotSeen) continue;
+    ++f.in_view;
+    if (changed_[k] == nullptr) continue;
     const CameraPlane& plane = planes_[k];
     const double pixels = static_cast<double>(box.pixels);
     const double changed =
@@ -38,7 +40,7 @@ FootprintDetector::Fit FootprintDetector::fit(std::size_t c) const {
     f.own += fresh / pixels;
     own_weight += open / pixels;
   }
-  if (f.cameras == 0) return {};
+  if (f.cameras == 0) return {.in_view = f.in_view};
   f.gain /= f.cameras;
   // Each camera weighs by how much of the box is open to it: a sliver beside someone else's box
   // is mostly the box's margin around the person, and says little (averaged per camera, the

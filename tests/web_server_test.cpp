@@ -451,11 +451,17 @@ TEST_F(WebServer, ApiTracksAndZonesAreTheNewestAsOccmapStatusJsonHasThem) {
   EXPECT_TRUE(t["tracks"].is_array());
   EXPECT_GE(z["seq"].get<std::int64_t>(), 0);
   // The keys of `occmap status --json`'s "zones" and "tracks" (the people in the room are found).
-  const auto printed =
-      runCommand({testing::kOccmap, "status", "--lcm-url", testing::kLcmUrl, "--json"});
-  ASSERT_EQ(printed.exit_code, 0) << printed.err;
-  const Json status = Json::parse(printed.out);
-  ASSERT_TRUE(status["zones"].is_array()) << printed.out;
+  // occmap status gives the tracks 0.2 s beyond its answer: a daemon whose footprints thread a
+  // sanitizer and a busy machine slow below that (seen under TSan) is asked again.
+  Json status;
+  for (int attempt = 0; attempt < 5 && !status.contains("tracks"); ++attempt) {
+    const auto printed =
+        runCommand({testing::kOccmap, "status", "--lcm-url", testing::kLcmUrl, "--json"});
+    ASSERT_EQ(printed.exit_code, 0) << printed.err;
+    status = Json::parse(printed.out);
+    if (!kSanitized) break;
+  }
+  ASSERT_TRUE(status["zones"].is_array()) << status.dump();
   for (const auto& [key, value] : status["zones"][0].items()) {
     EXPECT_TRUE(z["zones"][0].contains(key)) << key;
   }
