@@ -29,6 +29,8 @@ namespace {
 
 constexpr std::int64_t kNanosecondsPerMs = 1'000'000;
 constexpr std::int64_t kMergeStatusPeriodNs = 1000 * kNanosecondsPerMs;
+// The longest the loop reads messages before it looks at signals, requests and the watchdog.
+constexpr std::int64_t kDrainNs = 100 * kNanosecondsPerMs;
 // Answers to status requests, at most (transport/status_requests.h), as occmapd's pipeline.
 constexpr double kMaxMergeStatusAnswersPerS = 20.0;
 // A clock warning for one input at most this often, and repeated this often while it lasts.
@@ -173,8 +175,12 @@ int runMergeDaemon(const Config& config, int signal_fd) {
       }
     }
     // What waits, without blocking: the poll above waited. A message makes at most one merged
-    // map, whose latency is then the node's last.
-    for (int handled = 0; handled < 1000; ++handled) {
+    // map, whose latency is then the node's last. For no longer than kDrainNs at a time: when
+    // maps come faster than they are merged (an overloaded machine; TSan on a busy one), a
+    // thousand messages took 30 s and more, through which a SIGTERM waited unread and the
+    // watchdog went unfed.
+    const std::int64_t drain_until_ns = monotonicNanoseconds() + kDrainNs;
+    for (int handled = 0; handled < 1000 && monotonicNanoseconds() < drain_until_ns; ++handled) {
       const std::uint64_t published = node.published();
       if (node.spinOnce(0) <= 0) break;
       if (node.published() != published) {
