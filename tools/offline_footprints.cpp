@@ -1,6 +1,7 @@
 #include "tools/offline_footprints.h"
 
 #include <cstdio>
+#include <string_view>
 
 #include "config/input_error.h"
 #include "tools/progress.h"
@@ -126,11 +127,11 @@ void OfflineFootprints::add(std::uint64_t map, std::span<const std::uint8_t* con
   if (objects != nullptr && truth_file_.is_open()) {
     for (std::size_t i = 0; i < objects->size(); ++i) {
       const sim::SceneObject& object = (*objects)[i];
+      const std::string_view kind = sim::objectKindName(object.kind);
       char row[128];
-      std::snprintf(row, sizeof row, "%llu,%.3f,%.3f,%zu,%s\n",
+      std::snprintf(row, sizeof row, "%llu,%.3f,%.3f,%zu,%.*s\n",
                     static_cast<unsigned long long>(map), object.solid.centre.x(),
-                    object.solid.centre.y(), i,
-                    std::string(sim::objectKindName(object.kind)).c_str());
+                    object.solid.centre.y(), i, static_cast<int>(kind.size()), kind.data());
       truth_file_ << row;
       ++truth_rows_;
     }
