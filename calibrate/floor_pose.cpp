@@ -28,9 +28,10 @@ cv::Mat cameraMatrix(const OpenCvParameters& p) {
   return (cv::Mat_<double>(3, 3) << p.fx, 0, p.cx, 0, p.fy, p.cy, 0, 0, 1);
 }
 
+// All 12 of OpenCV's coefficients: the usual 5, then the rational and thin prism terms (zero for a
+// usual lens, which OpenCV then treats exactly as the 5-coefficient model).
 cv::Mat distortionCoefficients(const OpenCvParameters& p) {
-  return (cv::Mat_<double>(1, 5) << p.distortion[0], p.distortion[1], p.distortion[2],
-          p.distortion[3], p.distortion[4]);
+  return cv::Mat(p.distortion, true).reshape(1, 1);
 }
 
 struct Solution {

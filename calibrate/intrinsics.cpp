@@ -152,8 +152,33 @@ IntrinsicsResult calibrateIntrinsics(const BoardSpec& spec, const std::vector<Bo
   report.cx_sigma_px = intrinsic_sigmas.at<double>(2);
   report.cy_sigma_px = intrinsic_sigmas.at<double>(3);
 
-  result.camera = openCvIntrinsics(camera_matrix, distortion, image_size);
+  const OpenCvParameters camera = openCvIntrinsics(camera_matrix, distortion, image_size);
+  report.refusal = foldInsidePicture(camera);
+  if (report.refusal.empty()) result.camera = camera;
   return result;
+}
+
+std::string foldInsidePicture(const OpenCvParameters& camera) {
+  const OpenCvCamera model(camera);
+  // Along the picture's border, where the model is furthest out, every 4 pixels and each corner.
+  const double right = camera.width - 0.5, bottom = camera.height - 0.5;
+  std::vector<Eigen::Vector2d> border;
+  for (double u = -0.5; u < right; u += 4) border.insert(border.end(), {{u, -0.5}, {u, bottom}});
+  for (double v = -0.5; v < bottom; v += 4) border.insert(border.end(), {{-0.5, v}, {right, v}});
+  border.emplace_back(right, bottom);
+  for (const Eigen::Vector2d& pixel : border) {
+    if (model.imageToRay(pixel)) continue;
+    char where[160];
+    std::snprintf(
+        where, sizeof where,
+        "the lens model found folds back inside the picture (pixel %.0f, %.0f has no ray: "
+        "its radial term stops increasing %.0f px from the principal point)",
+        pixel.x(), pixel.y(), model.maxRadius() * camera.fx);
+    return std::string(where) +
+           ": it is wrong there; take more pictures with the board right out in the picture's "
+           "corners, tilted, so that the distortion is measured where it is strongest";
+  }
+  return "";
 }
 
 }  // namespace occmap

@@ -56,10 +56,17 @@ struct IntrinsicsResult {
 OpenCvParameters openCvIntrinsics(const cv::Mat& camera_matrix, const cv::Mat& distortion,
                                   cv::Size image_size);
 
+// Why a lens model cannot be trusted over its whole picture: some pixel on the picture's border has
+// no ray, the model's radial term having stopped increasing short of it (a k3 fitted from corners
+// that never reached the picture's edge can turn the polynomial down inside it); empty when every
+// border pixel has one. Past that radius OpenCV folds points back into the picture.
+std::string foldInsidePicture(const OpenCvParameters& camera);
+
 // The camera's intrinsics from its pictures of the board (`views`: the corners found in each,
 // empty where none were), all of `image_size`, with OpenCV's 5-coefficient model (k1 k2 p1 p2 k3)
 // and no skew: cv::calibrateCamera on each view's own corners, so that partly seen ChArUco boards
-// count as fully as whole ones. Refused (no camera, report.refusal says why) under the rules above.
+// count as fully as whole ones. Refused (no camera, report.refusal says why) under the rules above,
+// and when the model found folds back inside the picture (foldInsidePicture).
 IntrinsicsResult calibrateIntrinsics(const BoardSpec& spec, const std::vector<BoardCorners>& views,
                                      cv::Size image_size);
 

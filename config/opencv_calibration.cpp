@@ -6,6 +6,7 @@
 #include <cctype>
 #include <climits>
 #include <cmath>
+#include <cstddef>
 #include <cstdio>
 #include <limits>
 #include <string>
@@ -244,35 +245,30 @@ class OpenCvReader {
     return m;
   }
 
-  std::array<double, 5> distortion() const {
+  std::array<double, OpenCvParameters::kDistortionCount> distortion() const {
     constexpr const char* kKey = "distortion_coefficients";
     const StorageNode& node = required(kKey);
     const Matrix d = matrix(node, kKey);
     if (d.rows != 1 && d.cols != 1) fail(node, kKey, "is " + shape(d) + "; it must be 1xN or Nx1");
     const std::size_t count = d.values.size();
-    std::array<double, 5> k{};  // k1 k2 p1 p2 k3
-    if (count == 4 || count == 5) {
-      std::copy(d.values.begin(), d.values.end(), k.begin());
-      return k;
-    }
-    if (count == 8 || count == 12 || count == 14) {
-      // OpenCV's rational, thin prism and tilted models: with their extra terms zero they are the
-      // 5-coefficient model exactly.
-      const bool extras_zero = std::all_of(d.values.begin() + 5, d.values.end(),
-                                           [](double value) { return value == 0.0; });
-      if (extras_zero) {
-        std::copy(d.values.begin(), d.values.begin() + 5, k.begin());
-        return k;
-      }
+    // OpenCV's lengths: k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4 [taux tauy]]]].
+    if (count != 4 && count != 5 && count != 8 && count != 12 && count != 14) {
       fail(node, kKey,
            "has " + std::to_string(count) +
-               " coefficients (OpenCV's rational, thin prism or tilted model); only the "
-               "4/5-coefficient model k1 k2 p1 p2 [k3] is supported: recalibrate without "
-               "CALIB_RATIONAL_MODEL, CALIB_THIN_PRISM_MODEL and CALIB_TILTED_MODEL");
+               " coefficients; OpenCV's models have 4 or 5 (k1 k2 p1 p2 [k3]), 8 (+ k4 k5 k6, "
+               "CALIB_RATIONAL_MODEL), 12 (+ s1 s2 s3 s4, CALIB_THIN_PRISM_MODEL) or 14 (+ taux "
+               "tauy, CALIB_TILTED_MODEL)");
     }
-    fail(node, kKey,
-         "has " + std::to_string(count) +
-             " coefficients; expected 5 (k1 k2 p1 p2 k3) or 4 (k1 k2 p1 p2)");
+    if (count == 14 && (d.values[12] != 0.0 || d.values[13] != 0.0)) {
+      fail(node, kKey,
+           "has a tilted sensor (taux = " + formatReal(d.values[12]) +
+               ", tauy = " + formatReal(d.values[13]) +
+               ", CALIB_TILTED_MODEL), which occmap does not model: recalibrate without "
+               "CALIB_TILTED_MODEL (the rational and thin prism terms are supported)");
+    }
+    std::array<double, OpenCvParameters::kDistortionCount> k{};
+    std::copy_n(d.values.begin(), std::min(count, k.size()), k.begin());
+    return k;
   }
 
   Eigen::Vector3d vector3(const char* key) const {
@@ -359,14 +355,20 @@ std::string openCvYamlText(const OpenCvParameters& p) {
     }
     return text + " ]\n";
   };
-  const auto& [k1, k2, p1, p2, k3] = p.distortion;
+  // As few coefficients as hold every non-zero one, in OpenCV's lengths (5, 8 or 12), so that a
+  // usual lens is written as OpenCV's usual 5.
+  const auto& k = p.distortion;
+  std::size_t count = k.size();
+  while (count > 5 && k[count - 1] == 0.0) --count;
+  count = count <= 5 ? 5 : count <= 8 ? 8 : 12;
   // A camera whose size comes from its stream is written without one, as it was read.
   const std::string size = p.width > 0 ? "image_width: " + std::to_string(p.width) +
                                              "\nimage_height: " + std::to_string(p.height) + "\n"
                                        : "";
   return "%YAML:1.0\n---\n" + size +
          matrix("camera_matrix", 3, {p.fx, 0, p.cx, 0, p.fy, p.cy, 0, 0, 1}) +
-         matrix("distortion_coefficients", 5, {k1, k2, p1, p2, k3}) +
+         matrix("distortion_coefficients", static_cast<int>(count),
+                {k.begin(), k.begin() + static_cast<std::ptrdiff_t>(count)}) +
          matrix("rvec", 3, {p.rvec.x(), p.rvec.y(), p.rvec.z()}) +
          matrix("tvec", 3, {p.tvec.x(), p.tvec.y(), p.tvec.z()});
 }

@@ -8,20 +8,42 @@
 namespace occmap {
 namespace {
 
-// Smallest positive s = r^2 with 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3 = 0 (the derivative of the radial
-// polynomial r (1 + k1 r^2 + k2 r^4 + k3 r^6) in r), or infinity. A sign change is bracketed on a
+// The radial factor N(s) / D(s) of OpenCV's rational model at s = r^2, N = 1 + k1 s + k2 s^2 + k3
+// s^3 and D = 1 + k4 s + k5 s^2 + k6 s^3 (D = 1 in the 5-coefficient model), with its derivative in
+// s.
+struct Radial {
+  double numerator, denominator, factor, slope_in_s;
+};
+
+Radial radialAt(const OpenCvParameters& p, double s) {
+  const auto& k = p.distortion;
+  const double n = 1.0 + s * (k[0] + s * (k[1] + s * k[4]));
+  const double dn = k[0] + s * (2.0 * k[1] + s * 3.0 * k[4]);
+  const double d = 1.0 + s * (k[5] + s * (k[6] + s * k[7]));
+  const double dd = k[5] + s * (2.0 * k[6] + s * 3.0 * k[7]);
+  return {n, d, n / d, (dn * d - n * dd) / (d * d)};
+}
+
+// Smallest positive s = r^2 past which r N(s) / D(s) no longer increases or D has reached zero (a
+// pole), or infinity. The derivative in r has the sign of N D + 2 s (N' D - N D'): in the
+// 5-coefficient model 1 + 3 k1 s + 5 k2 s^2 + 7 k3 s^3. A change of sign is bracketed on a
 // geometric grid and then bisected to the last bit; a root where the derivative only touches zero
-// leaves the polynomial increasing, so skipping it is right.
-double smallestPositiveRootOfSlope(double k1, double k2, double k3) {
-  auto slope = [&](double s) { return 1.0 + s * (3.0 * k1 + s * (5.0 * k2 + s * 7.0 * k3)); };
+// leaves the term increasing, so skipping it is right.
+double smallestRadiusSquaredPastWhichItFolds(const OpenCvParameters& p) {
+  auto increasing = [&](double s) {
+    const Radial r = radialAt(p, s);
+    const double slope =
+        r.numerator * r.denominator + 2.0 * s * r.slope_in_s * r.denominator * r.denominator;
+    return r.denominator > 0.0 && slope > 0.0;
+  };
   double low = 0.0;
   // The normalised radius of any real lens is far below 1e4 (an angle of 89.99 degrees).
   for (double high = 1e-8; high <= 1e8; high *= 1.05) {
-    if (slope(high) <= 0.0) {
+    if (!increasing(high)) {
       for (int i = 0; i < 200 && low < high; ++i) {
         const double mid = 0.5 * (low + high);
         if (mid <= low || mid >= high) break;
-        (slope(mid) > 0.0 ? low : high) = mid;
+        (increasing(mid) ? low : high) = mid;
       }
       return low;
     }
@@ -66,19 +88,18 @@ OpenCvCamera::OpenCvCamera(const OpenCvParameters& parameters)
                        handedness(parameters) * parameters.tvec},
                   parameters.width, parameters.height),
       p_(parameters) {
-  const double s =
-      smallestPositiveRootOfSlope(p_.distortion[0], p_.distortion[1], p_.distortion[4]);
-  max_radius_ = std::sqrt(s);
+  max_radius_ = std::sqrt(smallestRadiusSquaredPastWhichItFolds(p_));
 }
 
 Eigen::Vector2d OpenCvCamera::distort(const Eigen::Vector2d& n) const {
-  const auto& [k1, k2, p1, p2, k3] = p_.distortion;
+  const auto& k = p_.distortion;
+  const double p1 = k[2], p2 = k[3];
   const double x = n.x();
   const double y = n.y();
   const double r2 = x * x + y * y;
-  const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-  return {x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
-          y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y};
+  const double radial = radialAt(p_, r2).factor;
+  return {x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) + r2 * (k[8] + r2 * k[9]),
+          y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y + r2 * (k[10] + r2 * k[11])};
 }
 
 std::optional<Eigen::Vector2d> OpenCvCamera::cameraToPixel(const Eigen::Vector3d& camera) const {
@@ -94,20 +115,26 @@ std::optional<Eigen::Vector3d> OpenCvCamera::pixelToCamera(const Eigen::Vector2d
   // one-to-one and this converges in a few steps; a pixel that no point inside it reaches has no
   // ray.
   Eigen::Vector2d n = target;
-  const auto& [k1, k2, p1, p2, k3] = p_.distortion;
+  const auto& k = p_.distortion;
+  const double p1 = k[2], p2 = k[3];
   for (int iteration = 0; iteration < 50; ++iteration) {
     const Eigen::Vector2d residual = distort(n) - target;
     if (residual.norm() <= 1e-15 * (1.0 + target.norm())) break;
     const double x = n.x();
     const double y = n.y();
     const double r2 = x * x + y * y;
-    const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-    const double dradial = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);  // d radial / d r2
+    const Radial radial = radialAt(p_, r2);
+    const double dradial = radial.slope_in_s;  // d radial / d r2
+    // The thin prism's s1 r^2 + s2 r^4 (in x) and s3 r^2 + s4 r^4 (in y), differentiated in r2.
+    const double prism_x = k[8] + 2.0 * r2 * k[9];
+    const double prism_y = k[10] + 2.0 * r2 * k[11];
     Eigen::Matrix2d jacobian;
-    jacobian(0, 0) = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x;
-    jacobian(0, 1) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
-    jacobian(1, 0) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
-    jacobian(1, 1) = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x;
+    jacobian(0, 0) =
+        radial.factor + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x + 2.0 * x * prism_x;
+    jacobian(0, 1) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y + 2.0 * y * prism_x;
+    jacobian(1, 0) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y + 2.0 * x * prism_y;
+    jacobian(1, 1) =
+        radial.factor + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x + 2.0 * y * prism_y;
     Eigen::Vector2d step = jacobian.partialPivLu().solve(residual);
     if (!step.allFinite()) return std::nullopt;
     n -= step;

@@ -270,6 +270,35 @@ TEST(CalibrateIntrinsics, CharucoPicturesGiveBackTheCamera) {
   expectTheTrueCamera(kCharuco, calibrateIntrinsics(spec(kCharuco), views, cv::Size(640, 480)));
 }
 
+// A lens model that folds back inside its picture is refused: a barrel (k1 = -0.3) whose radial
+// term turns at 1.054 normalised radius, inside a 640x480 picture's corners at focal 350 px and
+// outside them at 600 px; and a rational model whose denominator reaches zero (a pole) at radius
+// 0.466, inside the picture at 600 px, as cv::calibrateCamera fitted it to the pictures of
+// CharucoPicturesGiveBackTheCamera with CALIB_RATIONAL_MODEL.
+TEST(CalibrateIntrinsics, AModelThatFoldsInsideThePictureIsRefused) {
+  OpenCvParameters barrel;
+  barrel.width = 640;
+  barrel.height = 480;
+  barrel.cx = 319.5;
+  barrel.cy = 239.5;
+  barrel.distortion = {-0.3, 0.0, 0.0, 0.0, 0.0};
+  barrel.fx = barrel.fy = 350.0;
+  const std::string refusal = foldInsidePicture(barrel);
+  EXPECT_NE(refusal.find("folds back inside the picture (pixel "), std::string::npos) << refusal;
+  EXPECT_NE(refusal.find("369 px from the principal point"), std::string::npos) << refusal;
+  EXPECT_NE(refusal.find("take more pictures with the board right out in the picture's corners"),
+            std::string::npos)
+      << refusal;
+  barrel.fx = barrel.fy = 600.0;
+  EXPECT_EQ(foldInsidePicture(barrel), "");
+
+  OpenCvParameters rational = barrel;
+  rational.distortion = {0.3246, -21.441, 8.03e-4, -5.63e-4, -5.6268, 0.5184, -21.2926, -10.4126};
+  EXPECT_NE(foldInsidePicture(rational), "");
+  rational.distortion = {-0.2, 0.05, 0.001, -0.0005, 0.0, 0.01, 0.0, 0.0};
+  EXPECT_EQ(foldInsidePicture(rational), "");
+}
+
 TEST(CalibrateIntrinsics, ChessboardPicturesGiveBackTheCamera) {
   const std::vector<BoardCorners> views = cornersIn(kChessboard, pictures(kChessboard, kPoses));
   int whole = 0;

@@ -525,31 +525,102 @@ TEST(OpenCvYaml, NonFiniteValuesAreRefused) {
   EXPECT_TRUE(says(tvec, "finite")) << tvec.what();
 }
 
-TEST(OpenCvYaml, OnlyTheFiveCoefficientModelIsSupported) {
-  OpenCvFile rational;
-  rational.distortion = (cv::Mat_<double>(1, 8) << -0.28, 0.07, 1e-3, -5e-4, 0.0, 0.01, 0.0, 0.0);
-  const InputError error = openCvError(rational);
-  EXPECT_EQ(error.field(), "distortion_coefficients");
-  EXPECT_TRUE(says(error, "8 coefficients")) << error.what();
-  EXPECT_TRUE(says(error, "only the 4/5-coefficient model")) << error.what();
+// OpenCV's model lengths: 4 and 5 (the usual), 8 (rational), 12 (thin prism), 14 (tilted sensor,
+// refused unless its two terms are zero); any other count is refused, naming the count.
+TEST(OpenCvYaml, OpenCvsModelLengths) {
+  OpenCvFile tilted;
+  tilted.distortion =
+      (cv::Mat_<double>(14, 1) << -0.28, 0.07, 1e-3, -5e-4, 0.02, 0, 0, 0, 0, 0, 0, 0, 0.01, 0.0);
+  const InputError tilt = openCvError(tilted);
+  EXPECT_EQ(tilt.field(), "distortion_coefficients");
+  EXPECT_TRUE(says(tilt, "CALIB_TILTED_MODEL")) << tilt.what();
 
-  OpenCvFile odd;
-  odd.distortion = (cv::Mat_<double>(1, 3) << -0.28, 0.07, 1e-3);
-  EXPECT_EQ(openCvError(odd).field(), "distortion_coefficients");
+  for (const int count : {3, 6, 13}) {
+    OpenCvFile odd;
+    odd.distortion = cv::Mat::zeros(1, count, CV_64F);
+    const InputError error = openCvError(odd);
+    EXPECT_EQ(error.field(), "distortion_coefficients");
+    EXPECT_TRUE(says(error, std::to_string(count) + " coefficients")) << error.what();
+  }
 
-  // The longer models with their extra terms zero are the 5-coefficient model exactly.
   const TemporaryFolder folder;
-  OpenCvFile zero_extras;
-  zero_extras.distortion =
-      (cv::Mat_<double>(14, 1) << -0.28, 0.07, 1e-3, -5e-4, 0.02, 0, 0, 0, 0, 0, 0, 0, 0, 0);
-  const OpenCvParameters p = loadOpenCvYaml(zero_extras.write(folder.file("z.yml")));
-  EXPECT_EQ(p.distortion[4], 0.02);
+  OpenCvFile level_sensor;  // 14 with taux = tauy = 0: the thin prism model exactly
+  level_sensor.distortion = (cv::Mat_<double>(14, 1) << -0.28, 0.07, 1e-3, -5e-4, 0.02, 0.1, 0.01,
+                             0.001, 1e-4, 2e-4, 3e-4, 4e-4, 0, 0);
+  const OpenCvParameters p = loadOpenCvYaml(level_sensor.write(folder.file("z.yml")));
+  for (int i = 0; i < 12; ++i) {
+    EXPECT_EQ(p.distortion[static_cast<std::size_t>(i)], level_sensor.distortion.at<double>(i));
+  }
 
   OpenCvFile four;
   four.distortion = (cv::Mat_<double>(4, 1) << -0.28, 0.07, 1e-3, -5e-4);
   const OpenCvParameters p4 = loadOpenCvYaml(four.write(folder.file("four.yml")));
   EXPECT_EQ(p4.distortion[3], -5e-4);
   EXPECT_EQ(p4.distortion[4], 0.0) << "4 coefficients: k3 = 0";
+}
+
+// A wide lens calibrated with CALIB_RATIONAL_MODEL and one with CALIB_THIN_PRISM_MODEL project as
+// cv::projectPoints does, every pixel's floor point images back into it, and what occmap writes of
+// them (8 and 12 coefficients) reads back bit for bit.
+TEST(OpenCvYaml, RationalAndThinPrismLensesAreOpenCvs) {
+  const TemporaryFolder folder;
+  const std::vector<std::vector<double>> lenses = {
+      {0.58, -0.13, 1e-3, -5e-4, -0.009, 0.93, 0.05, -0.03},
+      {-0.28, 0.07, 1e-3, -5e-4, 0.0, 0.0, 0.0, 0.0, 1e-3, -2e-4, 5e-4, 1e-4}};
+  std::mt19937_64 random(20261207);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (const std::vector<double>& lens : lenses) {
+    OpenCvFile file = turningLensLookingDown();
+    file.distortion = cv::Mat(lens, true).reshape(1, 1);
+    const LoadedCalibration loaded = loadCalibration(file.write(folder.file("lens.yml")));
+    const auto& camera = dynamic_cast<const OpenCvCamera&>(*loaded.model);
+    const std::string which = std::to_string(lens.size()) + " coefficients";
+
+    std::vector<cv::Point3d> world;
+    std::vector<Eigen::Vector2d> ours;
+    const double limit = std::min(camera.maxRadius(), 1.2);
+    for (int i = 0; i < 2000; ++i) {
+      const double radius = limit * std::sqrt(unit(random)) * 0.999;
+      const double angle = 2 * std::numbers::pi * unit(random);
+      const double depth = 0.5 + 19.5 * unit(random);
+      const Eigen::Vector3d in_camera(radius * std::cos(angle) * depth,
+                                      radius * std::sin(angle) * depth, depth);
+      const Eigen::Vector3d w =
+          camera.pose().rotation.transpose() * (in_camera - camera.pose().translation);
+      const std::optional<ImagePoint> image = camera.worldToImage(w);
+      ASSERT_TRUE(image) << which << ": radius " << radius << " inside " << camera.maxRadius();
+      world.emplace_back(w.x(), w.y(), w.z());
+      ours.push_back(image->pixel);
+    }
+    std::vector<cv::Point2d> theirs;
+    cv::projectPoints(world, file.rvec, file.tvec, file.camera_matrix, file.distortion, theirs);
+    double worst = 0;
+    for (std::size_t i = 0; i < world.size(); ++i) {
+      worst = std::max(worst, std::hypot(ours[i].x() - theirs[i].x, ours[i].y() - theirs[i].y));
+    }
+    EXPECT_LT(worst, 1e-6) << which << ": pixels apart from cv::projectPoints";
+
+    double worst_back = 0;
+    const auto& p = camera.parameters();
+    for (int i = 0; i < 2000; ++i) {
+      const Eigen::Vector2d pixel(-0.5 + p.width * unit(random), -0.5 + p.height * unit(random));
+      const std::optional<PlanePoint> floor = camera.imageToPlane(pixel, 0.0);
+      ASSERT_TRUE(floor) << which << ": pixel " << pixel.transpose() << " has no floor point";
+      const std::optional<ImagePoint> back = camera.worldToImage(floor->world);
+      ASSERT_TRUE(back) << which;
+      worst_back = std::max(worst_back, (back->pixel - pixel).norm());
+    }
+    EXPECT_LT(worst_back, 1e-6) << which << ": image -> floor -> image";
+
+    const auto text = calibrationText(camera, "c0");
+    ASSERT_TRUE(text);
+    EXPECT_EQ(parseOpenCvYaml(text->text, "written.yaml").distortion, p.distortion) << which;
+    cv::FileStorage theirs_again(text->text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+    cv::Mat written;
+    theirs_again["distortion_coefficients"] >> written;
+    EXPECT_EQ(written.total(), lens.size())
+        << which << ": written as OpenCV's model of that length";
+  }
 }
 
 // A zero (or negative) focal length would put every pixel's ray along the axis: refused, naming

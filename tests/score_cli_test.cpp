@@ -11,9 +11,11 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "command_runner.h"
 #include "temporary_folder.h"
+#include "tsai_xml.h"
 
 namespace occmap {
 namespace {
@@ -266,14 +268,24 @@ TEST(DetectCommand, WritesTheScenesTruthThatOccmapScoreScoresAsDetectDid) {
   EXPECT_NEAR(100 * s["moda"].get<double>(), printed, 0.006) << result.out;
   EXPECT_LT(printed, 100.0) << "a case where the two scores could differ";
 
-  const fs::path epfl = kData / "epfl-terrace/masks";
-  if (!fs::exists(epfl)) {
-    GTEST_SKIP() << "EPFL Terrace data not found at " << epfl.string()
-                 << ": the refusal for cameras that are not simulated is not checked";
-  }
+  // A camera that is not simulated: a downward camera's pictures from files, which have no scene
+  // to take a truth from.
+  const fs::path site = folder / "site";
+  fs::create_directories(site / "frames");
+  folder.write("site/down.xml", testing::kDownwardXml);
+  const cv::Mat grey(100, 100, CV_8UC1, cv::Scalar(90));
+  ASSERT_TRUE(cv::imwrite((site / "background.png").string(), grey));
+  ASSERT_TRUE(cv::imwrite((site / "frames/0000.png").string(), grey));
+  const fs::path files_config =
+      folder.write("site/files.yaml",
+                   "map: {origin_m: [-0.6, -0.6], cell_size_m: 0.04, width: 30, height: 30}\n"
+                   "fusion: {threshold: 25, column_height_m: 0}\n"
+                   "cameras:\n"
+                   "  - {name: down, source: \"files://frames/*.png\", calibration: down.xml,\n"
+                   "     background: background.png}\n");
   const testing::CommandResult refused =
-      runCommand({kOccmap, "detect", "--config", OCCMAP_SOURCE_DIR "/examples/epfl-terrace.yaml",
-                  "--out", (folder / "d.csv").string(), "--truth", (folder / "t.csv").string()});
+      runCommand({kOccmap, "detect", "--config", files_config.string(), "--out",
+                  (folder / "d.csv").string(), "--truth", (folder / "t.csv").string()});
   EXPECT_EQ(refused.exit_code, 2);
   EXPECT_NE(refused.err.find("only of a simulated scene"), std::string::npos) << refused.err;
   EXPECT_FALSE(fs::exists(folder / "t.csv"));

@@ -141,8 +141,9 @@ int runIntrinsics(const IntrinsicsOptions& o) {
   std::printf("fx %.3f +- %.3f  fy %.3f +- %.3f  cx %.3f +- %.3f  cy %.3f +- %.3f px\n", camera.fx,
               report.fx_sigma_px, camera.fy, report.fy_sigma_px, camera.cx, report.cx_sigma_px,
               camera.cy, report.cy_sigma_px);
-  const auto& [k1, k2, p1, p2, k3] = camera.distortion;
-  std::printf("distortion k1 %.6g  k2 %.6g  p1 %.6g  p2 %.6g  k3 %.6g\n", k1, k2, p1, p2, k3);
+  const auto& k = camera.distortion;  // the usual model: k1 k2 p1 p2 k3, the rest zero
+  std::printf("distortion k1 %.6g  k2 %.6g  p1 %.6g  p2 %.6g  k3 %.6g\n", k[0], k[1], k[2], k[3],
+              k[4]);
   if (report.rms_px > 1.0) {
     std::fprintf(stderr,
                  "occmap calibrate intrinsics: warning: an error over 1 px: look for blurred "
