@@ -132,6 +132,66 @@ cv::Ptr<cv::aruco::CharucoBoard> charucoBoard(const BoardSpec& spec) {
                                          cv::aruco::getPredefinedDictionary(spec.dictionary));
 }
 
+// The same board as printed before OpenCV 4.6, and still by calib.io and by later OpenCV with
+// setLegacyPattern(true). With an odd number of rows it is the same board; with an even number its
+// markers sit on the other squares: the top-left square holds marker 0 instead of being black
+// (opencv_contrib#3291; OpenCV 4.6, Debian's, knows only the new layout). The chessboard corners,
+// and so the calibration's points, are the same. OpenCV 4.6 offers no way to make it, so the
+// markers are laid out here as later OpenCV does (ids row by row over the squares with (x + y)
+// even), and each corner's nearest markers and their nearest corners, which
+// interpolateCornersCharuco reads, worked out again as CharucoBoard::create does.
+cv::Ptr<cv::aruco::CharucoBoard> legacyCharucoBoard(const BoardSpec& spec) {
+  cv::Ptr<cv::aruco::CharucoBoard> board = charucoBoard(spec);
+  const float square = static_cast<float>(spec.square_m);
+  const float marker = static_cast<float>(spec.marker_m);
+  const float inset = (square - marker) / 2;
+  board->objPoints.clear();
+  for (int y = 0; y < spec.rows; ++y) {
+    for (int x = 0; x < spec.columns; ++x) {
+      if ((x + y) % 2 != 0) continue;  // a black square
+      const cv::Point3f top_left(static_cast<float>(x) * square + inset,
+                                 static_cast<float>(y) * square + inset, 0);
+      board->objPoints.push_back({top_left, top_left + cv::Point3f(marker, 0, 0),
+                                  top_left + cv::Point3f(marker, marker, 0),
+                                  top_left + cv::Point3f(0, marker, 0)});
+    }
+  }
+  const auto centre = [](const std::vector<cv::Point3f>& corners) {
+    return (corners[0] + corners[1] + corners[2] + corners[3]) * 0.25f;
+  };
+  const auto squared = [](const cv::Point3f& d) { return double{d.x * d.x + d.y * d.y}; };
+  const double same = 1e-4 * spec.square_m * spec.square_m;  // (1 % of a square)^2, as OpenCV
+  board->nearestMarkerIdx.assign(board->chessboardCorners.size(), {});
+  board->nearestMarkerCorners.assign(board->chessboardCorners.size(), {});
+  for (std::size_t i = 0; i < board->chessboardCorners.size(); ++i) {
+    const cv::Point3f corner = board->chessboardCorners[i];
+    std::vector<int>& nearest = board->nearestMarkerIdx[i];
+    double least = -1;
+    for (std::size_t j = 0; j < board->objPoints.size(); ++j) {
+      const double distance = squared(corner - centre(board->objPoints[j]));
+      if (j == 0 || std::abs(distance - least) < same) {
+        nearest.push_back(static_cast<int>(j));
+        least = j == 0 ? distance : least;
+      } else if (distance < least) {
+        nearest.assign(1, static_cast<int>(j));
+        least = distance;
+      }
+    }
+    for (const int j : nearest) {
+      const std::vector<cv::Point3f>& corners = board->objPoints[static_cast<std::size_t>(j)];
+      int closest = 0;
+      for (int k = 1; k < 4; ++k) {
+        if (squared(corner - corners[static_cast<std::size_t>(k)]) <
+            squared(corner - corners[static_cast<std::size_t>(closest)])) {
+          closest = k;
+        }
+      }
+      board->nearestMarkerCorners[i].push_back(closest);
+    }
+  }
+  return board;
+}
+
 // Only the markers that lie where the board puts them: markers of the board's dictionary elsewhere
 // in the picture (the floor's, for calibrating the pose, often are) with ids the board uses would
 // otherwise be taken for the board's own, and every corner beside them misplaced (seen: a 7 x 5
@@ -185,8 +245,10 @@ void keepTheBoardsMarkers(const cv::aruco::CharucoBoard& board,
   ids.swap(board_ids);
 }
 
-BoardCorners findCharucoCorners(const BoardSpec& spec, const cv::Mat& grey) {
-  const cv::Ptr<cv::aruco::CharucoBoard> board = charucoBoard(spec);
+// `markers_in_place`: how many of the markers found lie where this board's layout puts them.
+BoardCorners findCharucoCorners(const cv::Ptr<cv::aruco::CharucoBoard>& board, const cv::Mat& grey,
+                                std::size_t& markers_in_place) {
+  markers_in_place = 0;
   cv::Ptr<cv::aruco::DetectorParameters> parameters = cv::aruco::DetectorParameters::create();
   parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;
   std::vector<std::vector<cv::Point2f>> marker_corners;
@@ -196,6 +258,7 @@ BoardCorners findCharucoCorners(const BoardSpec& spec, const cv::Mat& grey) {
                            rejected);
   if (marker_ids.empty()) return {};
   keepTheBoardsMarkers(*board, marker_corners, marker_ids);
+  markers_in_place = marker_ids.size();
   if (marker_ids.empty()) return {};
   // Markers missed at first are looked for again where the board says they must be.
   cv::aruco::refineDetectedMarkers(grey, board, marker_corners, marker_ids, rejected);
@@ -213,6 +276,20 @@ BoardCorners findCharucoCorners(const BoardSpec& spec, const cv::Mat& grey) {
     found.board_points.push_back(board->chessboardCorners[static_cast<std::size_t>(ids[i])]);
   }
   return found;
+}
+
+// A board with an even number of rows may have been printed in either layout (legacyCharucoBoard):
+// both are tried, and the board in the picture is the layout that more of the markers found agree
+// with (keepTheBoardsMarkers' one homography). Read in the wrong layout, a legacy 7 x 6 board
+// still gave 25 of its 30 corners, every one a square off, as if it were right; the count of
+// corners alone is a poor judge of that, while most markers sit where the wrong layout has none.
+BoardCorners findCharucoCorners(const BoardSpec& spec, const cv::Mat& grey) {
+  std::size_t markers = 0, legacy_markers = 0;
+  BoardCorners found = findCharucoCorners(charucoBoard(spec), grey, markers);
+  if (spec.rows % 2 != 0) return found;
+  BoardCorners legacy = findCharucoCorners(legacyCharucoBoard(spec), grey, legacy_markers);
+  if (legacy_markers != markers) return legacy_markers > markers ? legacy : found;
+  return legacy.size() > found.size() ? legacy : found;
 }
 
 // The largest cornerSubPix half-window that stays within each corner's own squares: under half the

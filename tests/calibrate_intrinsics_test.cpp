@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/aruco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -262,6 +263,46 @@ TEST(CalibrateIntrinsics, CornersAreWhereTheSquaresMeet) {
                                              double{corners.image_points[i].y} - y));
     }
     EXPECT_LT(largest, 0.05) << text;
+  }
+}
+
+// A ChArUco board with an even number of rows as OpenCV 4.6 (Debian's) and later draw it, and as
+// it was printed before (and still is by calib.io, and by later OpenCV with setLegacyPattern):
+// its markers on the other squares, the top-left square white with marker 0 on it. Both are found,
+// every corner where its squares meet.
+TEST(CalibrateIntrinsics, BoardsOfEitherChArUcoLayoutAreFound) {
+  const BoardSpec board = spec("charuco:7x6:0.04:0.03:DICT_4X4_50");
+  const cv::Mat today = boardPicture(board, 1000, 20);  // 40 pixels a square, 20 of margin
+  cv::Mat legacy(today.size(), CV_8UC1, cv::Scalar(255));
+  const cv::Ptr<cv::aruco::Dictionary> dictionary =
+      cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50);
+  int id = 0;
+  for (int y = 0; y < 6; ++y) {
+    for (int x = 0; x < 7; ++x) {
+      const cv::Rect square(20 + 40 * x, 20 + 40 * y, 40, 40);
+      if ((x + y) % 2 != 0) {
+        legacy(square).setTo(0);
+        continue;
+      }
+      cv::Mat marker;
+      cv::aruco::drawMarker(dictionary, id++, 30, marker, 1);
+      marker.copyTo(legacy(cv::Rect(square.x + 5, square.y + 5, 30, 30)));
+    }
+  }
+  ASSERT_EQ(today.at<std::uint8_t>(25, 25), 0) << "OpenCV 4.6's layout: the top-left square black";
+  for (const auto& [name, picture] : {std::pair{"4.6", today}, std::pair{"legacy", legacy}}) {
+    cv::Mat soft;
+    cv::GaussianBlur(picture, soft, cv::Size(5, 5), 1.0);
+    const BoardCorners corners = findBoardCorners(board, soft);
+    EXPECT_EQ(corners.size(), 30u) << name;
+    double largest = 0;
+    for (std::size_t i = 0; i < corners.size(); ++i) {
+      const double x = 20 + 40 * (double{corners.board_points[i].x} / 0.04) - 0.5;
+      const double y = 20 + 40 * (double{corners.board_points[i].y} / 0.04) - 0.5;
+      largest = std::max(largest, std::hypot(double{corners.image_points[i].x} - x,
+                                             double{corners.image_points[i].y} - y));
+    }
+    EXPECT_LT(largest, 0.05) << name;
   }
 }
 
