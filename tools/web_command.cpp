@@ -68,6 +68,17 @@ std::vector<std::uint8_t> coveragePicture(int map_width, int map_height,
 }
 
 int run(const WebOptions& o) {
+  // SIGINT and SIGTERM are taken by sigwait() below: blocked first, before any thread starts (the
+  // server's picture thread starts with it), so that every thread inherits the block. A thread
+  // that had them unblocked would take a SIGTERM to its default action and kill the process
+  // uncleanly: web_server_test saw exit by SIGTERM once in a clean run, the picture thread having
+  // started before the block.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
   std::string error;
   const std::optional<web::ListenAddress> listen = web::parseListenAddress(o.listen, error);
   if (!listen) throw InputError("", 0, "--listen " + o.listen, error);
@@ -93,14 +104,6 @@ int run(const WebOptions& o) {
     std::fprintf(stderr, "occmap web: failed: %s\n", e.what());
     return kExitFailure;
   }
-
-  // SIGINT and SIGTERM are taken by sigwait() below: blocked here, before any thread starts, so
-  // that every thread inherits the block and none is interrupted by them.
-  sigset_t stop_signals;
-  sigemptyset(&stop_signals);
-  sigaddset(&stop_signals, SIGINT);
-  sigaddset(&stop_signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
 
   server.start();
   feed.start();
