@@ -326,6 +326,40 @@ TEST(CalibrationText, ReadsBackExactlyInBothKinds) {
   EXPECT_EQ(tsai_again.kappa1, tsai.kappa1);
 }
 
+// The farthest, in pixels, that `camera` images points from where cv::projectPoints images them
+// with `file`'s parameters: 2000 points in front of the camera, at normalised radii below `limit`
+// (inside the model's valid radius), 0.5 to 20 units deep. Infinite when one has no image.
+double farthestFromCvProjectPoints(const OpenCvCamera& camera, const OpenCvFile& file, double limit,
+                                   std::mt19937_64& random) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<cv::Point3d> world;
+  std::vector<Eigen::Vector2d> ours;
+  const Eigen::Matrix3d rotation = camera.pose().rotation;
+  const Eigen::Vector3d translation = camera.pose().translation;
+  for (int i = 0; i < 2000; ++i) {
+    const double radius = limit * std::sqrt(unit(random)) * 0.999;
+    const double angle = 2 * std::numbers::pi * unit(random);
+    const double depth = 0.5 + 19.5 * unit(random);
+    const Eigen::Vector3d in_camera(radius * std::cos(angle) * depth,
+                                    radius * std::sin(angle) * depth, depth);
+    const Eigen::Vector3d w = rotation.transpose() * (in_camera - translation);
+    const std::optional<ImagePoint> image = camera.worldToImage(w);
+    if (!image) {
+      ADD_FAILURE() << "radius " << radius << " is inside maxRadius " << camera.maxRadius();
+      return std::numeric_limits<double>::infinity();
+    }
+    world.emplace_back(w.x(), w.y(), w.z());
+    ours.push_back(image->pixel);
+  }
+  std::vector<cv::Point2d> theirs;
+  cv::projectPoints(world, file.rvec, file.tvec, file.camera_matrix, file.distortion, theirs);
+  double worst = 0;
+  for (std::size_t i = 0; i < world.size(); ++i) {
+    worst = std::max(worst, std::hypot(ours[i].x() - theirs[i].x, ours[i].y() - theirs[i].y));
+  }
+  return worst;
+}
+
 // What the loader builds projects as OpenCV does, on points anywhere inside the model's valid
 // radius.
 TEST(OpenCvYaml, ProjectsLikeCvProjectPoints) {
@@ -348,30 +382,7 @@ TEST(OpenCvYaml, ProjectsLikeCvProjectPoints) {
       EXPECT_TRUE(std::isinf(camera.maxRadius()));
     }
 
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    std::vector<cv::Point3d> world;
-    std::vector<Eigen::Vector2d> ours;
-    const Eigen::Matrix3d rotation = camera.pose().rotation;
-    const Eigen::Vector3d translation = camera.pose().translation;
-    for (int i = 0; i < 2000; ++i) {
-      // A point in camera coordinates at normalised radius below the limit, 0.5 to 20 units deep.
-      const double radius = limit * std::sqrt(unit(random)) * 0.999;
-      const double angle = 2 * std::numbers::pi * unit(random);
-      const double depth = 0.5 + 19.5 * unit(random);
-      const Eigen::Vector3d in_camera(radius * std::cos(angle) * depth,
-                                      radius * std::sin(angle) * depth, depth);
-      const Eigen::Vector3d w = rotation.transpose() * (in_camera - translation);
-      const std::optional<ImagePoint> image = camera.worldToImage(w);
-      ASSERT_TRUE(image) << "radius " << radius << " is inside maxRadius " << camera.maxRadius();
-      world.emplace_back(w.x(), w.y(), w.z());
-      ours.push_back(image->pixel);
-    }
-    std::vector<cv::Point2d> theirs;
-    cv::projectPoints(world, file.rvec, file.tvec, file.camera_matrix, file.distortion, theirs);
-    double worst = 0;
-    for (std::size_t i = 0; i < world.size(); ++i) {
-      worst = std::max(worst, std::hypot(ours[i].x() - theirs[i].x, ours[i].y() - theirs[i].y));
-    }
+    const double worst = farthestFromCvProjectPoints(camera, file, limit, random);
     EXPECT_LT(worst, 1e-6) << "pixels apart from cv::projectPoints, k3 = " << lens[4];
   }
 }
@@ -576,28 +587,8 @@ TEST(OpenCvYaml, RationalAndThinPrismLensesAreOpenCvs) {
     const auto& camera = dynamic_cast<const OpenCvCamera&>(*loaded.model);
     const std::string which = std::to_string(lens.size()) + " coefficients";
 
-    std::vector<cv::Point3d> world;
-    std::vector<Eigen::Vector2d> ours;
     const double limit = std::min(camera.maxRadius(), 1.2);
-    for (int i = 0; i < 2000; ++i) {
-      const double radius = limit * std::sqrt(unit(random)) * 0.999;
-      const double angle = 2 * std::numbers::pi * unit(random);
-      const double depth = 0.5 + 19.5 * unit(random);
-      const Eigen::Vector3d in_camera(radius * std::cos(angle) * depth,
-                                      radius * std::sin(angle) * depth, depth);
-      const Eigen::Vector3d w =
-          camera.pose().rotation.transpose() * (in_camera - camera.pose().translation);
-      const std::optional<ImagePoint> image = camera.worldToImage(w);
-      ASSERT_TRUE(image) << which << ": radius " << radius << " inside " << camera.maxRadius();
-      world.emplace_back(w.x(), w.y(), w.z());
-      ours.push_back(image->pixel);
-    }
-    std::vector<cv::Point2d> theirs;
-    cv::projectPoints(world, file.rvec, file.tvec, file.camera_matrix, file.distortion, theirs);
-    double worst = 0;
-    for (std::size_t i = 0; i < world.size(); ++i) {
-      worst = std::max(worst, std::hypot(ours[i].x() - theirs[i].x, ours[i].y() - theirs[i].y));
-    }
+    const double worst = farthestFromCvProjectPoints(camera, file, limit, random);
     EXPECT_LT(worst, 1e-6) << which << ": pixels apart from cv::projectPoints";
 
     double worst_back = 0;
