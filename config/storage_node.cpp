@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <climits>
 #include <memory>
+#include <utility>
 
 #include <libxml/tree.h>
 #include <yaml-cpp/yaml.h>
@@ -46,7 +47,7 @@ StorageNode fromYaml(const YAML::Node& yaml, const std::string& file, int depth)
     node.kind = StorageNode::Kind::kMapping;
     for (const auto& field : yaml) {
       const std::string key = field.first.IsScalar() ? field.first.Scalar() : std::string();
-      node.fields.emplace_back(key, fromYaml(field.second, file, depth + 1));
+      node.fields.push_back({key, fromYaml(field.second, file, depth + 1)});
     }
   }
   return node;
@@ -121,7 +122,7 @@ StorageNode fromXml(const xmlNode* element, const std::string& file, int line_of
     if (all_unnamed) {
       node.items.push_back(std::move(value));
     } else {
-      node.fields.emplace_back(plainText(child->name), std::move(value));
+      node.fields.push_back({plainText(child->name), std::move(value)});
     }
   }
   return node;

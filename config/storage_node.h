@@ -3,7 +3,6 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
-#include <utility>
 #include <vector>
 
 namespace occmap {
@@ -18,6 +17,8 @@ namespace occmap {
 // !!opencv-matrix tags, flow lists over several lines) and libxml2 what it writes in XML
 // (<opencv_storage>, type_id="opencv-matrix", a list as numbers between blanks); both bound their
 // nesting and say where each value is.
+struct StorageField;
+
 struct StorageNode {
   enum class Kind : std::uint8_t { kNone, kScalar, kList, kMapping };
   Kind kind = Kind::kNone;         // kNone: a key with no value ("image_width:" in YAML)
@@ -25,10 +26,18 @@ struct StorageNode {
   bool quoted = false;             // kScalar: written as text ("640" in YAML), not as a number
   int line = 0;                    // 1-based, 0 when unknown
   std::vector<StorageNode> items;  // kList
-  std::vector<std::pair<std::string, StorageNode>> fields;  // kMapping, in file order
+  // kMapping, in file order. A struct declared ahead rather than std::pair<std::string,
+  // StorageNode>: a pair of a type not yet complete is refused by clang with libstdc++ 12
+  // (scripts/fuzz's build), while std::vector of one is allowed.
+  std::vector<StorageField> fields;
 
   // The first field of this name, or null (also when this is no mapping).
   const StorageNode* find(std::string_view key) const;
+};
+
+struct StorageField {
+  std::string key;
+  StorageNode value;
 };
 
 // The top level of a cv::FileStorage file: a mapping. Invalid syntax is an InputError with the
