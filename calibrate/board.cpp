@@ -159,7 +159,9 @@ cv::Ptr<cv::aruco::CharucoBoard> legacyCharucoBoard(const BoardSpec& spec) {
   const auto centre = [](const std::vector<cv::Point3f>& corners) {
     return (corners[0] + corners[1] + corners[2] + corners[3]) * 0.25f;
   };
-  const auto squared = [](const cv::Point3f& d) { return double{d.x * d.x + d.y * d.y}; };
+  const auto squared = [](const cv::Point3f& d) {
+    return static_cast<double>(d.x * d.x + d.y * d.y);
+  };
   const double same = 1e-4 * spec.square_m * spec.square_m;  // (1 % of a square)^2, as OpenCV
   board->nearestMarkerIdx.assign(board->chessboardCorners.size(), {});
   board->nearestMarkerCorners.assign(board->chessboardCorners.size(), {});

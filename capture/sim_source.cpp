@@ -42,7 +42,9 @@ FrameSource::Status SimSource::read(Frame& frame) {
           static_cast<std::uint8_t>(std::min(255.0, std::round(v * gain)));
     }
     std::uint8_t* pixel = current_.data();
-    for (std::size_t i = 0, n = static_cast<std::size_t>(width()) * height(); i < n; ++i) {
+    for (std::size_t i = 0,
+                     n = static_cast<std::size_t>(width()) * static_cast<std::size_t>(height());
+         i < n; ++i) {
       pixel[i] = lit[pixel[i]];
     }
   }

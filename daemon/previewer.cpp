@@ -89,8 +89,8 @@ void shrinkForPreview(ImageView image, const std::uint8_t* changed, int scale,
       const std::uint8_t* pixel = image.row(v);
       for (std::size_t u = 0; u < stream_width; ++u) sums[u] += pixel[u];
       // Row v's changed bits: byte v % 8 of each tile in its row of tiles, bit u % 8 for pixel u.
-      const std::uint8_t* bits =
-          changed + (static_cast<std::size_t>(v / 8) * tiles_across * 8 + v % 8);
+      const std::uint8_t* bits = changed + (static_cast<std::size_t>(v / 8) * tiles_across * 8 +
+                                            static_cast<std::size_t>(v % 8));
       for (std::size_t tile = 0; tile < tiles_across; ++tile) {
         const std::uint8_t byte = bits[tile * 8];
         if (byte == 0) continue;

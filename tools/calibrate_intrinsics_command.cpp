@@ -123,10 +123,16 @@ int runIntrinsics(const IntrinsicsOptions& o) {
                  i + 1, files.size(), files[i].c_str(), views.back().size(), spec.cornerCount());
   }
   if (with_board == 0) {
+    // The pictures by name (the first three), so that a pattern that matched the wrong files shows.
+    std::string named;
+    for (std::size_t i = 0; i < std::min<std::size_t>(files.size(), 3); ++i) {
+      named += (i == 0 ? "" : ", ") + files[i].string();
+    }
+    if (files.size() > 3) named += " and " + std::to_string(files.size() - 3) + " more";
     throw InputError("", 0, "--images",
                      "the board " + boardSpecText(spec) + " is in none of the " +
-                         std::to_string(files.size()) +
-                         " pictures: check that --board says the printed board (kind; "
+                         std::to_string(files.size()) + " pictures (" + named +
+                         "): check that --board says the printed board (kind; "
                          "COLUMNSxROWS counts squares for charuco, inner corners for chessboard; "
                          "the dictionary) and that the board is sharp, well lit and, for a "
                          "chessboard, whole in the picture");
