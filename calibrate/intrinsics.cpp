@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cfloat>
+#include <cmath>
 #include <cstdio>
 #include <set>
 
@@ -160,20 +161,21 @@ IntrinsicsResult calibrateIntrinsics(const BoardSpec& spec, const std::vector<Bo
 
 std::string foldInsidePicture(const OpenCvParameters& camera) {
   const OpenCvCamera model(camera);
-  // Along the picture's border, where the model is furthest out, every 4 pixels and each corner.
-  const double right = camera.width - 0.5, bottom = camera.height - 0.5;
+  // Along the picture's border, where the model is furthest out: every 4 pixels and each corner,
+  // pixel centres.
+  const double right = camera.width - 1.0, bottom = camera.height - 1.0;
   std::vector<Eigen::Vector2d> border;
-  for (double u = -0.5; u < right; u += 4) border.insert(border.end(), {{u, -0.5}, {u, bottom}});
-  for (double v = -0.5; v < bottom; v += 4) border.insert(border.end(), {{-0.5, v}, {right, v}});
+  for (double u = 0; u < right; u += 4) border.insert(border.end(), {{u, 0.0}, {u, bottom}});
+  for (double v = 0; v < bottom; v += 4) border.insert(border.end(), {{0.0, v}, {right, v}});
   border.emplace_back(right, bottom);
   for (const Eigen::Vector2d& pixel : border) {
     if (model.imageToRay(pixel)) continue;
-    char where[160];
-    std::snprintf(
-        where, sizeof where,
-        "the lens model found folds back inside the picture (pixel %.0f, %.0f has no ray: "
-        "its radial term stops increasing %.0f px from the principal point)",
-        pixel.x(), pixel.y(), model.maxRadius() * camera.fx);
+    char where[256];
+    std::snprintf(where, sizeof where,
+                  "the lens model found folds back inside the picture: pixel (%.0f, %.0f), %.0f px "
+                  "from the principal point, has no ray (past it the model's radial term no "
+                  "longer increases)",
+                  pixel.x(), pixel.y(), std::hypot(pixel.x() - camera.cx, pixel.y() - camera.cy));
     return std::string(where) +
            ": it is wrong there; take more pictures with the board right out in the picture's "
            "corners, tilted, so that the distortion is measured where it is strongest";
