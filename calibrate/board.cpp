@@ -247,26 +247,35 @@ void keepTheBoardsMarkers(const cv::aruco::CharucoBoard& board,
   ids.swap(board_ids);
 }
 
-// `markers_in_place`: how many of the markers found lie where this board's layout puts them.
-BoardCorners findCharucoCorners(const cv::Ptr<cv::aruco::CharucoBoard>& board, const cv::Mat& grey,
-                                std::size_t& markers_in_place) {
-  markers_in_place = 0;
+// The board's markers as found in a picture, before any layout is applied to them.
+struct MarkersFound {
+  std::vector<std::vector<cv::Point2f>> corners;
+  std::vector<std::vector<cv::Point2f>> rejected;
+  std::vector<int> ids;
+};
+
+MarkersFound findMarkers(const cv::Ptr<cv::aruco::Dictionary>& dictionary, const cv::Mat& grey) {
   cv::Ptr<cv::aruco::DetectorParameters> parameters = cv::aruco::DetectorParameters::create();
   parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_NONE;
-  std::vector<std::vector<cv::Point2f>> marker_corners;
-  std::vector<std::vector<cv::Point2f>> rejected;
-  std::vector<int> marker_ids;
-  cv::aruco::detectMarkers(grey, board->dictionary, marker_corners, marker_ids, parameters,
-                           rejected);
-  if (marker_ids.empty()) return {};
-  keepTheBoardsMarkers(*board, marker_corners, marker_ids);
-  markers_in_place = marker_ids.size();
-  if (marker_ids.empty()) return {};
+  MarkersFound found;
+  cv::aruco::detectMarkers(grey, dictionary, found.corners, found.ids, parameters, found.rejected);
+  return found;
+}
+
+// The corners of `board` between the markers found (a copy: each layout keeps its own).
+// `markers_in_place`: how many of them lie where this board's layout puts them.
+BoardCorners findCharucoCorners(const cv::Ptr<cv::aruco::CharucoBoard>& board, const cv::Mat& grey,
+                                MarkersFound markers, std::size_t& markers_in_place) {
+  markers_in_place = 0;
+  if (markers.ids.empty()) return {};
+  keepTheBoardsMarkers(*board, markers.corners, markers.ids);
+  markers_in_place = markers.ids.size();
+  if (markers.ids.empty()) return {};
   // Markers missed at first are looked for again where the board says they must be.
-  cv::aruco::refineDetectedMarkers(grey, board, marker_corners, marker_ids, rejected);
+  cv::aruco::refineDetectedMarkers(grey, board, markers.corners, markers.ids, markers.rejected);
   std::vector<cv::Point2f> corners;
   std::vector<int> ids;
-  cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, grey, board, corners, ids);
+  cv::aruco::interpolateCornersCharuco(markers.corners, markers.ids, grey, board, corners, ids);
   BoardCorners found;
   for (std::size_t i = 0; i < ids.size(); ++i) {
     found.ids.push_back(ids[i]);
@@ -281,16 +290,20 @@ BoardCorners findCharucoCorners(const cv::Ptr<cv::aruco::CharucoBoard>& board, c
 }
 
 // A board with an even number of rows may have been printed in either layout (legacyCharucoBoard):
-// both are tried, and the board in the picture is the layout that more of the markers found agree
-// with (keepTheBoardsMarkers' one homography). Read in the wrong layout, a legacy 7 x 6 board
-// still gave 25 of its 30 corners, every one a square off, as if it were right; the count of
-// corners alone is a poor judge of that, while most markers sit where the wrong layout has none.
+// both are tried on the same markers found, and the board in the picture is the layout that more
+// of them agree with (keepTheBoardsMarkers' one homography). Read in the wrong layout, a legacy
+// 7 x 6 board still gave 25 of its 30 corners, every one a square off, as if it were right; the
+// count of corners alone is a poor judge of that, while most markers sit where the wrong layout
+// has none.
 BoardCorners findCharucoCorners(const BoardSpec& spec, const cv::Mat& grey) {
-  std::size_t markers = 0, legacy_markers = 0;
-  BoardCorners found = findCharucoCorners(charucoBoard(spec), grey, markers);
+  const cv::Ptr<cv::aruco::CharucoBoard> board = charucoBoard(spec);
+  const MarkersFound markers = findMarkers(board->dictionary, grey);
+  std::size_t in_place = 0, legacy_in_place = 0;
+  BoardCorners found = findCharucoCorners(board, grey, markers, in_place);
   if (spec.rows % 2 != 0) return found;
-  BoardCorners legacy = findCharucoCorners(legacyCharucoBoard(spec), grey, legacy_markers);
-  if (legacy_markers != markers) return legacy_markers > markers ? legacy : found;
+  BoardCorners legacy =
+      findCharucoCorners(legacyCharucoBoard(spec), grey, markers, legacy_in_place);
+  if (legacy_in_place != in_place) return legacy_in_place > in_place ? legacy : found;
   return legacy.size() > found.size() ? legacy : found;
 }
 
