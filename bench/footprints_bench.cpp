@@ -109,9 +109,13 @@ Sequence makeSequence(const std::string& yaml, const std::filesystem::path& file
   return sequence;
 }
 
-void stageCase(benchmark::State& state, const Sequence* sequence) {
+// strips: the boxes' bands (FootprintSettings::box_strips), 0 for the config's; 1 is the
+// rectangle bounding each board (before 2026-12-07), to compare with in the same run.
+void stageCase(benchmark::State& state, const Sequence* sequence, int strips) {
   const Config& config = sequence->config;
-  FootprintsStage stage(config.map, sequence->cameras, config.footprints, sequence->mask_bytes);
+  FootprintSettings settings = config.footprints;
+  if (strips > 0) settings.box_strips = strips;
+  FootprintsStage stage(config.map, sequence->cameras, settings, sequence->mask_bytes);
   // One zone over the middle half of the map.
   const MapGeometry& map = config.map;
   const double x0 = map.origin_x_m + 0.25 * map.width * map.cell_size_m;
@@ -121,7 +125,7 @@ void stageCase(benchmark::State& state, const Sequence* sequence) {
   const std::vector<ZoneSpec> specs = {{"middle", {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}}};
   // As occmapd has them: the floor hidden behind the people found on the map before counts as
   // unseen (core/hidden_floor.h).
-  Zones zones(map, specs, sequence->cameras, config.footprints, config.fusion.column_height_m);
+  Zones zones(map, specs, sequence->cameras, settings, config.fusion.column_height_m);
   std::vector<ZoneStatus> zone_out(specs.size());
   std::vector<const std::uint8_t*> pointers(sequence->cameras.size());
   std::size_t i = 0, footprints = 0, tracks = 0;
@@ -179,7 +183,8 @@ int main(int argc, char** argv) {
     const std::filesystem::path file = source / "examples/sim-room.yaml";
     std::fprintf(stderr, "footprints_bench: rendering 300 maps of sim://room ...\n");
     sequences.push_back(std::make_unique<Sequence>(makeSequence(readText(file), file, 300)));
-    benchmark::RegisterBenchmark("room/stage", stageCase, sequences.back().get());
+    benchmark::RegisterBenchmark("room/stage", stageCase, sequences.back().get(), 0);
+    benchmark::RegisterBenchmark("room/stage-rectangles", stageCase, sequences.back().get(), 1);
   }
   {
     const std::filesystem::path file = source / "examples/sim-room.yaml";
@@ -187,7 +192,9 @@ int main(int argc, char** argv) {
         std::regex_replace(readText(file), std::regex("sim://room/"), "sim://room-crowd/");
     std::fprintf(stderr, "footprints_bench: rendering 300 maps of sim://room-crowd ...\n");
     sequences.push_back(std::make_unique<Sequence>(makeSequence(yaml, file, 300)));
-    benchmark::RegisterBenchmark("room-crowd/stage", stageCase, sequences.back().get());
+    benchmark::RegisterBenchmark("room-crowd/stage", stageCase, sequences.back().get(), 0);
+    benchmark::RegisterBenchmark("room-crowd/stage-rectangles", stageCase, sequences.back().get(),
+                                 1);
   }
   const std::filesystem::path terrace = source / "examples/epfl-terrace.yaml";
   const std::filesystem::path crowd = source / "../shared/data/epfl-terrace-crowd/masks";
@@ -196,7 +203,8 @@ int main(int argc, char** argv) {
                                                 "epfl-terrace-crowd/masks");
     sequences.push_back(std::make_unique<Sequence>(makeSequence(yaml, terrace, 1000)));
     sequences.back()->fps = 1.0;  // the crowd set's moments are a second apart
-    benchmark::RegisterBenchmark("terrace/stage", stageCase, sequences.back().get());
+    benchmark::RegisterBenchmark("terrace/stage", stageCase, sequences.back().get(), 0);
+    benchmark::RegisterBenchmark("terrace/stage-rectangles", stageCase, sequences.back().get(), 1);
   } else {
     std::fprintf(stderr, "footprints_bench: SKIPPED terrace: %s is absent\n", crowd.c_str());
   }

@@ -50,7 +50,7 @@ constexpr std::string_view kFootprintKeys[] = {
     "min_cameras",         "enabled",          "object_height_m",
     "object_min_support",  "object_min_fresh", "settle_reach_m",
     "hidden_floor_unseen", "expected_reach_m", "expected_fresh_share",
-    "expected_within_s",   "two_view_min_own"};
+    "expected_within_s",   "two_view_min_own", "box_strips"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
@@ -501,6 +501,8 @@ class ConfigReader {
         footprints.expected_fresh_share = real(entry.value, 0.0, false, 1.0, "");
       } else if (entry.key == "expected_within_s") {
         footprints.expected_within_s = real(entry.value, 0.0, false, 10.0, " s");
+      } else if (entry.key == "box_strips") {
+        footprints.box_strips = smallInteger(entry.value, 1, 16);
       }
     }
     return footprints;

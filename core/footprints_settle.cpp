@@ -22,15 +22,18 @@ FootprintDetector::Fit FootprintDetector::fit(std::size_t c) const {
   f.support = 1.0;
   double own_weight = 0.0;
   for (std::size_t k = 0; k < planes_.size(); ++k) {
-    const Box& box = boxes_[candidate.boxes + k];
-    if (box.u0 == kNotSeen) continue;
+    const Box* strips = boxAt(candidate, k);
+    if (strips->u0 == kNotSeen) continue;
     ++f.in_view;
     if (changed_[k] == nullptr) continue;
     const CameraPlane& plane = planes_[k];
-    const double pixels = static_cast<double>(box.pixels);
-    const double changed =
-        rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
-    const Overlap explained = piecesIn<true>(plane, box);
+    const double pixels = static_cast<double>(pixelsOf(candidate, k));
+    double changed = 0.0;
+    for (std::size_t s = 0; s < strips_; ++s) {
+      const Box& box = strips[s];
+      changed += rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
+    }
+    const Overlap explained = piecesIn<true>(plane, boundOf(candidate, k), strips, strips_);
     // Blocks to pixels (a box at the image's edge may hold fewer than its blocks).
     const double covered = std::min(pixels, explained.blocks * plane.block * plane.block);
     const double fresh = changed - explained.changed, open = pixels - covered;
@@ -56,10 +59,13 @@ void FootprintDetector::keepPiecesNear(int row, int column, int steps) {
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     Box window{kNotSeen, kNotSeen, 0, 0, 0.0f};
     forEachNear(row, column, steps, [&](std::size_t n) {
-      const Box& box = boxes_[candidates_[n].boxes + k];
-      if (box.u0 == kNotSeen) return;
-      window = {std::min(window.u0, box.u0), std::min(window.v0, box.v0),
-                std::max(window.u1, box.u1), std::max(window.v1, box.v1), 0.0f};
+      const Box* strips = boxAt(candidates_[n], k);
+      if (strips->u0 == kNotSeen) return;
+      for (std::size_t s = 0; s < strips_; ++s) {
+        const Box& box = strips[s];
+        window = {std::min(window.u0, box.u0), std::min(window.v0, box.v0),
+                  std::max(window.u1, box.u1), std::max(window.v1, box.v1), 0.0f};
+      }
     });
     std::vector<Box>& pieces = planes_[k].pieces;
     pieces.erase(std::remove_if(pieces.begin(), pieces.end(),
@@ -118,6 +124,59 @@ void FootprintDetector::settle() {
     detections_[i].y_m = settled.y_m;
     detections_[i].area_m2 = footprintArea(settled);
     detections_[i].score = support;
+  }
+}
+
+// Two found within one and a half boxes' width of each other whom one place explains about as well
+// are one: something wider than a person's box (a chair seen across its diagonal, 0.7 m) fills a
+// box on either side of its centre once the boxes follow the board (box_strips). The pair stays
+// only when, everyone else explained, the first's gain and the second's beside it exceed the best
+// single place within two grid steps of their midpoint by min_fresh, the least that a person found
+// must add. sim://room's 600 maps with 3 strips: false positives 273 -> 25 (its chairs found
+// twice), MODA 88.8 -> 95.7 %; room-crowd 84.3 -> 84.7 %; two people 0.6 m apart are two
+// (Footprints.FindsEveryoneInRandomCrowdsAndNoGhosts, Footprints.WhatIsWiderThanABoxIsFoundOnce).
+void FootprintDetector::mergeDoubles() {
+  const double near = 1.5 * settings_.box_width_m;
+  for (std::size_t i = 0; i < detections_.size(); ++i) {
+    if (chosen_[i] >= first_low_) continue;
+    for (std::size_t j = i + 1; j < detections_.size(); ++j) {
+      if (chosen_[j] >= first_low_) continue;
+      const double dx = detections_[j].x_m - detections_[i].x_m;
+      const double dy = detections_[j].y_m - detections_[i].y_m;
+      if (dx * dx + dy * dy > near * near) continue;
+      forgetExplained();
+      for (std::size_t o = 0; o < chosen_.size(); ++o) {
+        if (o != i && o != j) markExplained(chosen_[o]);
+      }
+      double single = -1e9;
+      std::size_t at = SIZE_MAX;
+      const double mx = (detections_[i].x_m + detections_[j].x_m) / 2;
+      const double my = (detections_[i].y_m + detections_[j].y_m) / 2;
+      const int row = static_cast<int>(std::lround((my - map_.origin_y_m) / step_ - 0.5));
+      const int column = static_cast<int>(std::lround((mx - map_.origin_x_m) / step_ - 0.5));
+      forEachNear(row, column, 2, [&](std::size_t n) {
+        if (occupiedWithin(candidates_[n].near) == 0) return;
+        const Fit f = fit(n);
+        if (f.cameras < settings_.min_cameras || f.support < settings_.min_support) return;
+        if (f.gain > single) {
+          single = f.gain;
+          at = n;
+        }
+      });
+      if (at == SIZE_MAX) continue;
+      const double first = fit(chosen_[i]).gain;
+      markExplained(chosen_[i]);
+      const double pair = first + fit(chosen_[j]).gain;
+      if (pair - single >= settings_.min_fresh) continue;
+      chosen_[i] = at;
+      detections_[i].x_m = candidates_[at].x_m;
+      detections_[i].y_m = candidates_[at].y_m;
+      detections_[i].area_m2 = footprintArea(candidates_[at]);
+      detections_.erase(detections_.begin() + static_cast<std::ptrdiff_t>(j));
+      chosen_.erase(chosen_.begin() + static_cast<std::ptrdiff_t>(j));
+      was_expected_.erase(was_expected_.begin() + static_cast<std::ptrdiff_t>(j));
+      j = i;  // i moved: its neighbours again
+    }
   }
 }
 

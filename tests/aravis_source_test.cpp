@@ -689,10 +689,20 @@ TEST_F(SilentGigECamera, IsReopenedByItsCallerAndStreamsOnWithItsFrameNumbersGoi
   std::printf("a stalled camera reopened in %.2f s\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - reopening).count());
   EXPECT_EQ(source->state(), SourceState::kStarting);
+  // A camera reopened that stays silent is reopened again, as occmapd does with a camera silent
+  // past its limit (daemon/pipeline.cpp). Seen once, under ASan beside a loaded machine's other
+  // work: the first reopen's stream had no frame in 30 s.
+  FrameSource::Status status = nextFrame(*source, frame);
+  int reopens = 1;
+  while (status == FrameSource::Status::kTimeout && reopens < 3) {
+    ASSERT_TRUE(reopenWithin(*source, 5000ms)) << source->lastError();
+    ++reopens;
+    status = nextFrame(*source, frame);
+  }
+  if (reopens > 1) std::printf("the stalled camera streamed after %d reopens\n", reopens);
   // The frame the camera was sending when it stopped may come first, cut short: reported as an
   // error and counted, so the next whole frame's number is one further on.
   std::uint64_t cut = 0;
-  FrameSource::Status status = nextFrame(*source, frame);
   if (status == FrameSource::Status::kError &&
       source->lastError().find("missing packets") != std::string::npos) {
     cut = 1;
@@ -700,7 +710,12 @@ TEST_F(SilentGigECamera, IsReopenedByItsCallerAndStreamsOnWithItsFrameNumbersGoi
   }
   ASSERT_EQ(status, FrameSource::Status::kFrame) << source->lastError();
   EXPECT_EQ(source->state(), SourceState::kStreaming);
-  EXPECT_EQ(frame.sequence, last + 1 + cut) << "frame numbers go on across the reopen";
+  if (reopens == 1) {
+    EXPECT_EQ(frame.sequence, last + 1 + cut) << "frame numbers go on across the reopen";
+  } else {
+    // What the camera sent while no stream took it is counted as lost frames.
+    EXPECT_GT(frame.sequence, last) << "frame numbers go on across the reopens";
+  }
   last = frame.sequence;
 
   // Killed: silence again, and no reopen succeeds until the camera is back.
