@@ -350,6 +350,22 @@ FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c, double ve
                                                         int veto_cameras) const {
   const Candidate& candidate = candidates_[c];
   Evidence e;
+  // With a veto, first the rectangle holding each camera's strips: their changed pixels are at
+  // most its, and a candidate whose rectangle holds too few fails with a third of the sums.
+  if (veto_support > 0 && strips_ > 1) {
+    for (std::size_t k = 0; k < planes_.size(); ++k) {
+      const Box& bound = boundOf(candidate, k);
+      if (bound.u0 == kNotSeen || changed_[k] == nullptr) continue;
+      const CameraPlane& plane = planes_[k];
+      const double most =
+          rectangleSum(plane.changed, plane.across, bound.u0, bound.v0, bound.u1, bound.v1);
+      if (most < veto_support * static_cast<double>(pixelsOf(candidate, k))) {
+        e.cameras = 1;
+        e.support = 0.0;
+        return e;  // fresh 0: it fails
+      }
+    }
+  }
   // First the support, from one sum per camera: most candidates fail on it, and then what the
   // people found explain (a look at every piece) need not be counted.
   for (std::size_t k = 0; k < planes_.size(); ++k) {
@@ -494,6 +510,14 @@ void FootprintDetector::explainGreedily(std::size_t begin, std::size_t end, bool
       continue;  // too close to someone found since it was judged
     }
     if (top.round != round) {
+      // Unless the boxes of someone found since touch its boxes in some camera, it would add just
+      // what it did (the pieces explained are only ever added to): judged again only then.
+      const std::size_t since = chosen_.size() - (round - top.round);
+      if (!touchedSince(top.candidate, since)) {
+        heap_.push_back({top.fresh, top.support, top.candidate, round});
+        std::push_heap(heap_.begin(), heap_.end());
+        continue;
+      }
       const Evidence e = evidence(top.candidate);
       if (e.fresh < min_fresh) continue;
       heap_.push_back({e.fresh, e.support, top.candidate, round});
@@ -506,6 +530,22 @@ void FootprintDetector::explainGreedily(std::size_t begin, std::size_t end, bool
     markExplained(top.candidate);
     ++round;
   }
+}
+
+bool FootprintDetector::touchedSince(std::size_t c, std::size_t first_found) const {
+  const Candidate& candidate = candidates_[c];
+  for (std::size_t k = 0; k < planes_.size(); ++k) {
+    const Box& bound = boundOf(candidate, k);
+    if (bound.u0 == kNotSeen) continue;
+    for (std::size_t i = first_found; i < chosen_.size(); ++i) {
+      const Box& other = boundOf(candidates_[chosen_[i]], k);
+      if (other.u0 != kNotSeen && other.u0 < bound.u1 && bound.u0 < other.u1 &&
+          other.v0 < bound.v1 && bound.v0 < other.v1) {
+        return true;
+      }
+    }
+  }
+  return false;
 }
 
 // With blocks of one pixel, the integral image straight from the changed bits: no counts to

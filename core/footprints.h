@@ -244,6 +244,9 @@ class FootprintDetector {
     int in_view = 0;       // whose images have the place, with a frame in this set or not
   };
   Fit fit(std::size_t candidate) const;
+  // Whether the boxes of the people found from chosen_[first_found] on meet the candidate's in
+  // some camera (their bounds do).
+  bool touchedSince(std::size_t candidate, std::size_t first_found) const;
   // The changed pixels of the candidate's boxes become explained.
   void markExplained(std::size_t candidate);
   void forgetExplained();
