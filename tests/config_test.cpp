@@ -254,7 +254,8 @@ TEST(Config, FootprintsAreReadAndChecked) {
           "footprints: {box_width_m: 0.6, box_height_m: 1.2, step_m: 0.05, min_support: "
           "0.3, min_fresh: 0.15, min_cameras: 3, min_separation_m: 0.4, enabled: false, "
           "object_height_m: 0, object_min_support: 0.5, object_min_fresh: 0.25, "
-          "settle_reach_m: 0.3, hidden_floor_unseen: true, two_view_min_own: 0.3}\n",
+          "settle_reach_m: 0.3, hidden_floor_unseen: true, two_view_min_own: 0.3, "
+          "box_strips: 2}\n",
       "/etc/occmap/occmap.yaml");
   EXPECT_FALSE(config.footprints.enabled);
   EXPECT_DOUBLE_EQ(config.footprints.object_height_m, 0.0);
@@ -270,6 +271,10 @@ TEST(Config, FootprintsAreReadAndChecked) {
   EXPECT_DOUBLE_EQ(config.footprints.settle_reach_m, 0.3);
   EXPECT_DOUBLE_EQ(defaults.footprints.settle_reach_m, 0.5);
   EXPECT_DOUBLE_EQ(config.footprints.two_view_min_own, 0.3);
+  EXPECT_EQ(config.footprints.box_strips, 2);
+  EXPECT_EQ(defaults.footprints.box_strips, 3) << "boxes that follow the board";
+  expectError(kMinimal + "footprints: {box_strips: 0}\n", 5, "footprints.box_strips", "");
+  expectError(kMinimal + "footprints: {box_strips: 1.5}\n", 5, "footprints.box_strips", "");
   EXPECT_DOUBLE_EQ(defaults.footprints.two_view_min_own, 0.4) << "twice min_support";
   expectError(kMinimal + "footprints: {two_view_min_own: 1.2}\n", 5, "footprints.two_view_min_own",
               "must be <= 1");
