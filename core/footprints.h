@@ -28,10 +28,12 @@
 // detections have their largest count.
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -261,6 +263,12 @@ class FootprintDetector {
   void keepOnly(Fails fails);
   void settle();
   void mergeDoubles();
+  // The candidates' grid place nearest a floor point (place i along an axis is at origin +
+  // (i + 1/2) step), as {row, column}: perhaps off the grid.
+  std::pair<int, int> gridPlaceOf(double x_m, double y_m) const {
+    return {static_cast<int>(std::lround((y_m - map_.origin_y_m) / step_ - 0.5)),
+            static_cast<int>(std::lround((x_m - map_.origin_x_m) / step_ - 0.5))};
+  }
   void keepPiecesNear(int row, int column, int steps);
   // Calls visit(candidate) for each people's candidate on the grid within `steps` places of
   // (row, column) across and down.
@@ -283,14 +291,14 @@ class FootprintDetector {
   std::size_t first_low_ = SIZE_MAX;
   // candidates x cameras x strips_; u0 == kNotSeen where not in view
   std::vector<Box> boxes_;
-  std::vector<float> box_pixels_;  // candidates x cameras: the pixels of all its strips
-  std::vector<Box> bounds_;        // candidates x cameras: the rectangle holding its strips
+  // candidates x cameras: the rectangle holding its strips, with the strips' pixels
+  std::vector<Box> bounds_;
   std::size_t strips_ = 1;
   const Box* boxAt(const Candidate& candidate, std::size_t k) const {
     return boxes_.data() + (candidate.boxes + k) * strips_;
   }
   float pixelsOf(const Candidate& candidate, std::size_t k) const {
-    return box_pixels_[candidate.boxes + k];
+    return bounds_[candidate.boxes + k].pixels;
   }
   const Box& boundOf(const Candidate& candidate, std::size_t k) const {
     return bounds_[candidate.boxes + k];

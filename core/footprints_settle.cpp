@@ -59,13 +59,10 @@ void FootprintDetector::keepPiecesNear(int row, int column, int steps) {
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     Box window{kNotSeen, kNotSeen, 0, 0, 0.0f};
     forEachNear(row, column, steps, [&](std::size_t n) {
-      const Box* strips = boxAt(candidates_[n], k);
-      if (strips->u0 == kNotSeen) return;
-      for (std::size_t s = 0; s < strips_; ++s) {
-        const Box& box = strips[s];
-        window = {std::min(window.u0, box.u0), std::min(window.v0, box.v0),
-                  std::max(window.u1, box.u1), std::max(window.v1, box.v1), 0.0f};
-      }
+      const Box& bound = boundOf(candidates_[n], k);
+      if (bound.u0 == kNotSeen) return;
+      window = {std::min(window.u0, bound.u0), std::min(window.v0, bound.v0),
+                std::max(window.u1, bound.u1), std::max(window.v1, bound.v1), 0.0f};
     });
     std::vector<Box>& pieces = planes_[k].pieces;
     pieces.erase(std::remove_if(pieces.begin(), pieces.end(),
@@ -150,16 +147,16 @@ void FootprintDetector::mergeDoubles() {
       }
       double single = -1e9;
       std::size_t at = SIZE_MAX;
-      const double mx = (detections_[i].x_m + detections_[j].x_m) / 2;
-      const double my = (detections_[i].y_m + detections_[j].y_m) / 2;
-      const int row = static_cast<int>(std::lround((my - map_.origin_y_m) / step_ - 0.5));
-      const int column = static_cast<int>(std::lround((mx - map_.origin_x_m) / step_ - 0.5));
+      const auto [row, column] = gridPlaceOf((detections_[i].x_m + detections_[j].x_m) / 2,
+                                             (detections_[i].y_m + detections_[j].y_m) / 2);
+      double single_support = 0.0;
       forEachNear(row, column, 2, [&](std::size_t n) {
         if (occupiedWithin(candidates_[n].near) == 0) return;
         const Fit f = fit(n);
         if (f.cameras < settings_.min_cameras || f.support < settings_.min_support) return;
         if (f.gain > single) {
           single = f.gain;
+          single_support = f.support;
           at = n;
         }
       });
@@ -172,6 +169,7 @@ void FootprintDetector::mergeDoubles() {
       detections_[i].x_m = candidates_[at].x_m;
       detections_[i].y_m = candidates_[at].y_m;
       detections_[i].area_m2 = footprintArea(candidates_[at]);
+      detections_[i].score = single_support;
       detections_.erase(detections_.begin() + static_cast<std::ptrdiff_t>(j));
       chosen_.erase(chosen_.begin() + static_cast<std::ptrdiff_t>(j));
       was_expected_.erase(was_expected_.begin() + static_cast<std::ptrdiff_t>(j));
