@@ -231,7 +231,6 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
         static_cast<std::size_t>(plane.across + 1) * static_cast<std::size_t>(plane.down + 1);
     plane.counts.assign(blocks, 0);
     plane.changed.assign(entries, 0);
-    plane.pieces.reserve(64);
     // Each pixel column's block, and which tiles' 8 columns lie in one block: counting then
     // divides nothing, and a tile row's byte in one block counts with one popcount.
     plane.block_of.resize(tilesAcross(plane.width) * 8);
@@ -304,6 +303,7 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   }
   changed_.assign(cameras.size(), nullptr);
   box_changed_.assign(cameras.size(), 0.0);
+  windows_.resize(cameras.size());
   occupied_.assign(
       static_cast<std::size_t>(map.width + 1) * static_cast<std::size_t>(map.height + 1), 0);
   alive_.reserve(candidates_.size());
@@ -313,9 +313,7 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   detections_.reserve(kRoom);
   chosen_.reserve(kRoom);
   kept_.reserve(kRoom);
-  fragments_.reserve(16 * kRoom);
-  cut_.reserve(16 * kRoom);
-  for (CameraPlane& plane : planes_) plane.pieces.reserve(16 * kRoom);
+  for (CameraPlane& plane : planes_) plane.explained.reset(plane.across, kBandShift, 2 * kRoom);
   grid_.assign(static_cast<std::size_t>(grid_across_) * static_cast<std::size_t>(grid_down_),
                kNoCandidate);
   for (std::size_t c = 0; c < std::min(first_low_, candidates_.size()); ++c) {
@@ -398,7 +396,7 @@ FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c, double ve
 }
 
 void FootprintDetector::forgetExplained() {
-  for (CameraPlane& plane : planes_) plane.pieces.clear();
+  for (CameraPlane& plane : planes_) plane.explained.clear();
 }
 
 void FootprintDetector::markExplained(std::size_t c) {
@@ -406,35 +404,32 @@ void FootprintDetector::markExplained(std::size_t c) {
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     const Box* strips = boxAt(candidate, k);
     if (strips->u0 == kNotSeen || changed_[k] == nullptr) continue;
-    CameraPlane& plane = planes_[k];
-    for (std::size_t s = 0; s < strips_; ++s) {
-      const Box& box = strips[s];
-      if (box.u0 >= box.u1 || box.v0 >= box.v1) continue;
-      // The box less every piece already there, as at most four rectangles per piece cut out of
-      // each fragment: above, below, left and right of the piece.
-      fragments_.assign(1, box);
-      for (const Box& piece : plane.pieces) {
-        // Most pieces lie apart from the strip: nothing to cut.
-        if (piece.u1 <= box.u0 || box.u1 <= piece.u0 || piece.v1 <= box.v0 || box.v1 <= piece.v0) {
-          continue;
-        }
-        cut_.clear();
-        for (const Box& f : fragments_) {
-          const std::uint16_t u0 = std::max(f.u0, piece.u0), u1 = std::min(f.u1, piece.u1);
-          const std::uint16_t v0 = std::max(f.v0, piece.v0), v1 = std::min(f.v1, piece.v1);
-          if (u0 >= u1 || v0 >= v1) {
-            cut_.push_back(f);
-            continue;
-          }
-          if (f.v0 < v0) cut_.push_back({f.u0, f.v0, f.u1, v0, 0.0f});
-          if (v1 < f.v1) cut_.push_back({f.u0, v1, f.u1, f.v1, 0.0f});
-          if (f.u0 < u0) cut_.push_back({f.u0, v0, u0, v1, 0.0f});
-          if (u1 < f.u1) cut_.push_back({u1, v0, f.u1, v1, 0.0f});
-        }
-        fragments_.swap(cut_);
-      }
-      plane.pieces.insert(plane.pieces.end(), fragments_.begin(), fragments_.end());
-    }
+    for (std::size_t s = 0; s < strips_; ++s) planes_[k].explained.add(strips[s]);
+  }
+}
+
+void FootprintDetector::markExplainedNear(std::size_t c) {
+  const Candidate& candidate = candidates_[c];
+  for (std::size_t k = 0; k < planes_.size(); ++k) {
+    const Box* strips = boxAt(candidate, k);
+    if (strips->u0 == kNotSeen || changed_[k] == nullptr) continue;
+    if (!meet(boundOf(candidate, k), windows_[k])) continue;
+    for (std::size_t s = 0; s < strips_; ++s) planes_[k].explained.add(strips[s]);
+  }
+}
+
+void FootprintDetector::windowsNear(int row, int column, int steps) {
+  std::fill(windows_.begin(), windows_.end(), Box{kNotSeen, kNotSeen, 0, 0, 0.0f});
+  if (steps >= 0) forEachNear(row, column, steps, [&](std::size_t n) { widenWindows(n); });
+}
+
+void FootprintDetector::widenWindows(std::size_t c) {
+  for (std::size_t k = 0; k < planes_.size(); ++k) {
+    const Box& bound = boundOf(candidates_[c], k);
+    if (bound.u0 == kNotSeen) continue;
+    Box& window = windows_[k];
+    window = {std::min(window.u0, bound.u0), std::min(window.v0, bound.v0),
+              std::max(window.u1, bound.u1), std::max(window.v1, bound.v1), 0.0f};
   }
 }
 
@@ -723,8 +718,10 @@ void FootprintDetector::keepOnly(Fails fails) {
   kept_.assign(detections_.size(), 1);
   for (std::size_t i = detections_.size(); i-- > 0;) {
     forgetExplained();
+    windowsNear(0, 0, -1);
+    widenWindows(chosen_[i]);
     for (std::size_t j = 0; j < chosen_.size(); ++j) {
-      if (j != i && kept_[j] != 0) markExplained(chosen_[j]);
+      if (j != i && kept_[j] != 0) markExplainedNear(chosen_[j]);
     }
     if (fails(i)) kept_[i] = 0;
   }

@@ -52,28 +52,6 @@ FootprintDetector::Fit FootprintDetector::fit(std::size_t c) const {
   return f;
 }
 
-// Only the pieces that some box of the candidates within `steps` of the grid's place (row,
-// column) touches, in each camera: they are all that settle() judges there (the others' pieces
-// are some 60 a camera in a crowd of twelve, a handful of them near one person).
-void FootprintDetector::keepPiecesNear(int row, int column, int steps) {
-  for (std::size_t k = 0; k < planes_.size(); ++k) {
-    Box window{kNotSeen, kNotSeen, 0, 0, 0.0f};
-    forEachNear(row, column, steps, [&](std::size_t n) {
-      const Box& bound = boundOf(candidates_[n], k);
-      if (bound.u0 == kNotSeen) return;
-      window = {std::min(window.u0, bound.u0), std::min(window.v0, bound.v0),
-                std::max(window.u1, bound.u1), std::max(window.v1, bound.v1), 0.0f};
-    });
-    std::vector<Box>& pieces = planes_[k].pieces;
-    pieces.erase(std::remove_if(pieces.begin(), pieces.end(),
-                                [&](const Box& piece) {
-                                  return piece.u1 <= window.u0 || window.u1 <= piece.u0 ||
-                                         piece.v1 <= window.v0 || window.v1 <= piece.v0;
-                                }),
-                 pieces.end());
-  }
-}
-
 // Each person, with everyone else's boxes explained, moves to the place on the candidates' grid
 // within settle_reach_m of where they were found whose gain is the largest, never closer than
 // min_separation_m to another, and only where they keep the cameras and the support that found
@@ -84,15 +62,15 @@ void FootprintDetector::settle() {
   const double separation2 = settings_.min_separation_m * settings_.min_separation_m;
   for (std::size_t i = 0; i < detections_.size(); ++i) {
     if (chosen_[i] >= first_low_) continue;
-    forgetExplained();
-    for (std::size_t j = 0; j < chosen_.size(); ++j) {
-      if (j != i) markExplained(chosen_[j]);
-    }
     const Candidate& start = candidates_[chosen_[i]];
     const int row = static_cast<int>(start.on_grid) / grid_across_;
     const int column = static_cast<int>(start.on_grid) % grid_across_;
     const int steps = static_cast<int>(std::floor(settings_.settle_reach_m / step_ + 1e-9));
-    keepPiecesNear(row, column, steps);
+    forgetExplained();
+    windowsNear(row, column, steps);
+    for (std::size_t j = 0; j < chosen_.size(); ++j) {
+      if (j != i) markExplainedNear(chosen_[j]);
+    }
     std::size_t at = chosen_[i];
     double best = fit(at).gain;
     double support = 0.0;  // at the best place, once it is another
@@ -141,14 +119,17 @@ void FootprintDetector::mergeDoubles() {
       const double dx = detections_[j].x_m - detections_[i].x_m;
       const double dy = detections_[j].y_m - detections_[i].y_m;
       if (dx * dx + dy * dy > near * near) continue;
+      const auto [row, column] = gridPlaceOf((detections_[i].x_m + detections_[j].x_m) / 2,
+                                             (detections_[i].y_m + detections_[j].y_m) / 2);
       forgetExplained();
+      windowsNear(row, column, 2);
+      widenWindows(chosen_[i]);
+      widenWindows(chosen_[j]);
       for (std::size_t o = 0; o < chosen_.size(); ++o) {
-        if (o != i && o != j) markExplained(chosen_[o]);
+        if (o != i && o != j) markExplainedNear(chosen_[o]);
       }
       double single = -1e9;
       std::size_t at = SIZE_MAX;
-      const auto [row, column] = gridPlaceOf((detections_[i].x_m + detections_[j].x_m) / 2,
-                                             (detections_[i].y_m + detections_[j].y_m) / 2);
       double single_support = 0.0;
       forEachNear(row, column, 2, [&](std::size_t n) {
         if (occupiedWithin(candidates_[n].near) == 0) return;

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "core/detection_score.h"
+#include "core/explained_pieces.h"
 #include "core/fusion_kernel.h"
 #include "corner_cameras.h"
 
@@ -284,6 +285,60 @@ TEST(Footprints, TheMapSaysWhereNoOneCanStand) {
   EXPECT_THROW(detector.detect(changed, std::vector<CellState>(3)), std::invalid_argument);
   changed.pop_back();
   EXPECT_THROW(detector.detect(changed, cells), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace occmap
+
+namespace occmap {
+namespace {
+
+// The explained pieces (core/explained_pieces.h) against a plain grid of explained blocks: random
+// boxes of every size, across one band or many, and for each query every block of the union that it
+// holds is visited exactly once, whichever bands the pieces and the query span.
+TEST(ExplainedPieces, EachExplainedBlockIsCountedOnceWhateverTheBands) {
+  constexpr int kAcross = 100, kDown = 60;
+  std::mt19937 random(7);
+  const auto box = [&](int widest) {
+    std::uniform_int_distribution<int> width(1, widest), height(1, 30);
+    const int w = width(random), h = height(random);
+    const int u0 = std::uniform_int_distribution<int>(0, kAcross - w)(random);
+    const int v0 = std::uniform_int_distribution<int>(0, kDown - h)(random);
+    return BlockBox{static_cast<std::uint16_t>(u0), static_cast<std::uint16_t>(v0),
+                    static_cast<std::uint16_t>(u0 + w), static_cast<std::uint16_t>(v0 + h), 0.0f};
+  };
+  for (const int shift : {0, 2, 4, 7}) {
+    ExplainedPieces pieces;
+    pieces.reset(kAcross, shift, 4);  // little room: the bands grow
+    for (int trial = 0; trial < 20; ++trial) {
+      pieces.clear();
+      std::vector<std::uint8_t> explained(kAcross * kDown, 0);
+      const int boxes = std::uniform_int_distribution<int>(0, 12)(random);
+      for (int b = 0; b < boxes; ++b) {
+        const BlockBox added = box(40);
+        pieces.add(added);
+        for (int v = added.v0; v < added.v1; ++v) {
+          for (int u = added.u0; u < added.u1; ++u) explained[v * kAcross + u] = 1;
+        }
+      }
+      for (int q = 0; q < 30; ++q) {
+        const BlockBox query = box(kAcross);
+        int expected = 0;
+        for (int v = query.v0; v < query.v1; ++v) {
+          for (int u = query.u0; u < query.u1; ++u) expected += explained[v * kAcross + u];
+        }
+        int counted = 0;
+        pieces.forEachMeeting(query, [&](const BlockBox& piece) {
+          const int u0 = std::max(piece.u0, query.u0), u1 = std::min(piece.u1, query.u1);
+          const int v0 = std::max(piece.v0, query.v0), v1 = std::min(piece.v1, query.v1);
+          ASSERT_LT(u0, u1);  // only pieces that meet the query are visited
+          ASSERT_LT(v0, v1);
+          counted += (u1 - u0) * (v1 - v0);
+        });
+        ASSERT_EQ(counted, expected) << "bands of " << (1 << shift) << ", trial " << trial;
+      }
+    }
+  }
 }
 
 }  // namespace
