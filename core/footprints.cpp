@@ -304,6 +304,7 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   changed_.assign(cameras.size(), nullptr);
   box_changed_.assign(cameras.size(), 0.0);
   windows_.resize(cameras.size());
+  strips_changed_.assign(candidates_.size() * cameras.size(), kNotSummed);
   occupied_.assign(
       static_cast<std::size_t>(map.width + 1) * static_cast<std::size_t>(map.height + 1), 0);
   alive_.reserve(candidates_.size());
@@ -368,12 +369,7 @@ FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c, double ve
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     const Box* strips = boxAt(candidate, k);
     if (strips->u0 == kNotSeen || changed_[k] == nullptr) continue;
-    const CameraPlane& plane = planes_[k];
-    double changed = 0.0;
-    for (std::size_t s = 0; s < strips_; ++s) {
-      const Box& box = strips[s];
-      changed += rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
-    }
+    const double changed = changedIn(c, k);
     box_changed_[k] = changed;
     ++e.cameras;
     e.support = std::min(e.support, changed / static_cast<double>(pixelsOf(candidate, k)));
@@ -673,6 +669,7 @@ const std::vector<Detection>& FootprintDetector::detect(
     }
   }
   forgetExplained();
+  std::fill(strips_changed_.begin(), strips_changed_.end(), kNotSummed);
   integrateOccupied(cells);
   // The people expected first, then everyone, then what stands lower where no one was found.
   first_low_ = std::min(first_low_, candidates_.size());

@@ -232,6 +232,23 @@ class FootprintDetector {
   // evidence (it fails) without counting what the people found explain.
   Evidence evidence(std::size_t candidate, double veto_support = 0.0, int veto_cameras = 0) const;
   mutable std::vector<double> box_changed_;  // evidence()'s: changed pixels in each camera's box
+  // The changed pixels in the candidate's strips in camera k, summed once a map: the greedy judges
+  // a candidate again and again, and settling the places around each person.
+  std::uint32_t changedIn(std::size_t candidate, std::size_t k) const {
+    std::uint32_t& changed = strips_changed_[candidate * planes_.size() + k];
+    if (changed == kNotSummed) {
+      const Box* strips = boxAt(candidates_[candidate], k);
+      const CameraPlane& plane = planes_[k];
+      changed = 0;
+      for (std::size_t s = 0; s < strips_; ++s) {
+        const Box& box = strips[s];
+        changed += rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
+      }
+    }
+    return changed;
+  }
+  static constexpr std::uint32_t kNotSummed = 0xffffffff;
+  mutable std::vector<std::uint32_t> strips_changed_;  // candidates x cameras
   // How well the candidate's boxes would explain, beside the people found, the pixels that they
   // leave open (no one found covers them).
   struct Fit {

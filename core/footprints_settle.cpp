@@ -28,11 +28,7 @@ FootprintDetector::Fit FootprintDetector::fit(std::size_t c) const {
     if (changed_[k] == nullptr) continue;
     const CameraPlane& plane = planes_[k];
     const double pixels = static_cast<double>(pixelsOf(candidate, k));
-    double changed = 0.0;
-    for (std::size_t s = 0; s < strips_; ++s) {
-      const Box& box = strips[s];
-      changed += rectangleSum(plane.changed, plane.across, box.u0, box.v0, box.u1, box.v1);
-    }
+    const double changed = changedIn(c, k);
     const Overlap explained = piecesIn<true>(plane, boundOf(candidate, k), strips, strips_);
     // Blocks to pixels (a box at the image's edge may hold fewer than its blocks).
     const double covered = std::min(pixels, explained.blocks * plane.block * plane.block);
