@@ -607,6 +607,7 @@ const std::vector<Detection>& FootprintDetector::detect(
   }
   detections_.clear();
   chosen_.clear();
+  expected_ = expected;
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     changed_[k] = changed[k];
     if (changed[k] == nullptr) continue;

@@ -285,6 +285,10 @@ class FootprintDetector {
   void keepOnly(Fails fails);
   void settle();
   void mergeDoubles();
+  std::span<const Eigen::Vector2d> expected_;  // detect()'s, during the call
+  // Whether the places where detections i and j are expected (the nearest to each within a box's
+  // width) are two, a box's width apart or more: two people followed, whom step 10 leaves two.
+  bool followedApart(std::size_t i, std::size_t j) const;
   // The candidates' grid place nearest a floor point (place i along an axis is at origin +
   // (i + 1/2) step), as {row, column}: perhaps off the grid.
   std::pair<int, int> gridPlaceOf(double x_m, double y_m) const {
