@@ -395,28 +395,23 @@ void FootprintDetector::forgetExplained() {
   for (CameraPlane& plane : planes_) plane.explained.clear();
 }
 
-void FootprintDetector::markExplained(std::size_t c) {
+void FootprintDetector::markExplained(std::size_t c, bool near_windows) {
   const Candidate& candidate = candidates_[c];
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     const Box* strips = boxAt(candidate, k);
     if (strips->u0 == kNotSeen || changed_[k] == nullptr) continue;
+    if (near_windows && !meet(boundOf(candidate, k), windows_[k])) continue;
     for (std::size_t s = 0; s < strips_; ++s) planes_[k].explained.add(strips[s]);
   }
 }
 
-void FootprintDetector::markExplainedNear(std::size_t c) {
-  const Candidate& candidate = candidates_[c];
-  for (std::size_t k = 0; k < planes_.size(); ++k) {
-    const Box* strips = boxAt(candidate, k);
-    if (strips->u0 == kNotSeen || changed_[k] == nullptr) continue;
-    if (!meet(boundOf(candidate, k), windows_[k])) continue;
-    for (std::size_t s = 0; s < strips_; ++s) planes_[k].explained.add(strips[s]);
-  }
+void FootprintDetector::clearWindows() {
+  std::fill(windows_.begin(), windows_.end(), Box{kNotSeen, kNotSeen, 0, 0, 0.0f});
 }
 
 void FootprintDetector::windowsNear(int row, int column, int steps) {
-  std::fill(windows_.begin(), windows_.end(), Box{kNotSeen, kNotSeen, 0, 0, 0.0f});
-  if (steps >= 0) forEachNear(row, column, steps, [&](std::size_t n) { widenWindows(n); });
+  clearWindows();
+  forEachNear(row, column, steps, [&](std::size_t n) { widenWindows(n); });
 }
 
 void FootprintDetector::widenWindows(std::size_t c) {
@@ -529,10 +524,7 @@ bool FootprintDetector::touchedSince(std::size_t c, std::size_t first_found) con
     if (bound.u0 == kNotSeen) continue;
     for (std::size_t i = first_found; i < chosen_.size(); ++i) {
       const Box& other = boundOf(candidates_[chosen_[i]], k);
-      if (other.u0 != kNotSeen && other.u0 < bound.u1 && bound.u0 < other.u1 &&
-          other.v0 < bound.v1 && bound.v0 < other.v1) {
-        return true;
-      }
+      if (other.u0 != kNotSeen && meet(other, bound)) return true;
     }
   }
   return false;
@@ -716,10 +708,10 @@ void FootprintDetector::keepOnly(Fails fails) {
   kept_.assign(detections_.size(), 1);
   for (std::size_t i = detections_.size(); i-- > 0;) {
     forgetExplained();
-    windowsNear(0, 0, -1);
+    clearWindows();
     widenWindows(chosen_[i]);
     for (std::size_t j = 0; j < chosen_.size(); ++j) {
-      if (j != i && kept_[j] != 0) markExplainedNear(chosen_[j]);
+      if (j != i && kept_[j] != 0) markExplained(chosen_[j], true);
     }
     if (fails(i)) kept_[i] = 0;
   }

@@ -264,13 +264,13 @@ class FootprintDetector {
   // Whether the boxes of the people found from chosen_[first_found] on meet the candidate's in
   // some camera (their bounds do).
   bool touchedSince(std::size_t candidate, std::size_t first_found) const;
-  // The changed pixels of the candidate's boxes become explained.
-  void markExplained(std::size_t candidate);
-  // Only in the cameras where its boxes meet windows_'s: what the others explain is looked at only
-  // near one person (keepOnly, settle, mergeDoubles), and there the union is the same.
-  void markExplainedNear(std::size_t candidate);
-  // windows_ becomes, per camera, the rectangle holding the boxes of the people's candidates within
-  // `steps` of the grid's place (row, column) (with steps -1, none).
+  // The changed pixels of the candidate's boxes become explained. With near_windows, only in the
+  // cameras where its boxes meet windows_'s: what the others explain is looked at only near one
+  // person (keepOnly, settle, mergeDoubles), and there the union is the same.
+  void markExplained(std::size_t candidate, bool near_windows = false);
+  // windows_ per camera: none (clearWindows), the rectangle holding the boxes of the people's
+  // candidates within `steps` of the grid's place (row, column), widened by a candidate's boxes.
+  void clearWindows();
   void windowsNear(int row, int column, int steps);
   void widenWindows(std::size_t candidate);
   void forgetExplained();

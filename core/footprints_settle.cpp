@@ -65,7 +65,7 @@ void FootprintDetector::settle() {
     forgetExplained();
     windowsNear(row, column, steps);
     for (std::size_t j = 0; j < chosen_.size(); ++j) {
-      if (j != i) markExplainedNear(chosen_[j]);
+      if (j != i) markExplained(chosen_[j], true);
     }
     std::size_t at = chosen_[i];
     double best = fit(at).gain;
@@ -147,7 +147,7 @@ void FootprintDetector::mergeDoubles() {
       widenWindows(chosen_[i]);
       widenWindows(chosen_[j]);
       for (std::size_t o = 0; o < chosen_.size(); ++o) {
-        if (o != i && o != j) markExplainedNear(chosen_[o]);
+        if (o != i && o != j) markExplained(chosen_[o], true);
       }
       double single = -1e9;
       std::size_t at = SIZE_MAX;
