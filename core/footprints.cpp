@@ -47,7 +47,15 @@ std::uint32_t integrateByte(std::uint32_t* out, const std::uint32_t* above, std:
                             unsigned byte, std::size_t n) {
   const std::array<std::uint32_t, 8>& running = kRunning[byte];
   if (n == 8) {
-    for (std::size_t i = 0; i < 8; ++i) out[i] = above[i] + sum + running[i];
+    // As one vector of 8 lanes (two on x86-64's baseline): written as a loop, GCC kept it scalar,
+    // since `out` may alias `above`, and the integral images were a fifth of the room's stage
+    // (sim://room 0.98 -> 0.81 ms a map, Terrace 0.77 -> 0.64 ms, medians of 5, one run).
+    using Lanes = std::uint32_t __attribute__((vector_size(32)));
+    Lanes from_above, counts;
+    std::memcpy(&from_above, above, sizeof from_above);
+    std::memcpy(&counts, running.data(), sizeof counts);
+    const Lanes entries = from_above + counts + sum;
+    std::memcpy(out, &entries, sizeof entries);
   } else {
     for (std::size_t i = 0; i < n; ++i) out[i] = above[i] + sum + running[i];
   }
