@@ -353,7 +353,8 @@ double FootprintDetector::footprintArea(const Candidate& candidate) const {
          map_.cell_size_m * map_.cell_size_m;
 }
 
-FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c, double veto_support,
+FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c, double bar,
+                                                        double veto_support,
                                                         int veto_cameras) const {
   const Candidate& candidate = candidates_[c];
   Evidence e;
@@ -387,13 +388,28 @@ FootprintDetector::Evidence FootprintDetector::evidence(std::size_t c, double ve
     return e;
   }
   if (e.cameras < veto_cameras || e.support < veto_support) return e;  // fresh 0: it fails
+  // What it adds is counted a camera at a time, and the count stops once even the cameras not yet
+  // counted, had the people found explained none of their pixels, could not lift it to the bar.
+  double most = 0.0;  // the cameras not yet counted: their shares of changed pixels
+  for (std::size_t k = 0; k < planes_.size(); ++k) {
+    if (boxAt(candidate, k)->u0 == kNotSeen || changed_[k] == nullptr) continue;
+    most += box_changed_[k] / static_cast<double>(pixelsOf(candidate, k));
+  }
+  // A hair under the bar, so that rounding in the sums cannot stop a count that would reach it.
+  const double needed = bar * e.cameras - 1e-9;
   double fresh = 0.0;
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     const Box* strips = boxAt(candidate, k);
     if (strips->u0 == kNotSeen || changed_[k] == nullptr) continue;
+    const double pixels = static_cast<double>(pixelsOf(candidate, k));
     const double explained =
         piecesIn<false>(planes_[k], boundOf(candidate, k), strips, strips_).changed;
-    fresh += (box_changed_[k] - explained) / static_cast<double>(pixelsOf(candidate, k));
+    fresh += (box_changed_[k] - explained) / pixels;
+    most -= box_changed_[k] / pixels;
+    if (fresh + most < needed) {
+      e.fresh = (fresh + std::max(0.0, most)) / e.cameras;  // below the bar: all that is asked
+      return e;
+    }
   }
   e.fresh = fresh / e.cameras;
   return e;
@@ -485,7 +501,7 @@ void FootprintDetector::explainGreedily(std::size_t begin, std::size_t end, bool
   // candidate that fails once fails for good: its cameras and support do not change.
   heap_.clear();
   for (const std::size_t c : alive_) {
-    const Evidence e = evidence(c, min_support, settings_.min_cameras);
+    const Evidence e = evidence(c, min_fresh, min_support, settings_.min_cameras);
     if (e.cameras < settings_.min_cameras || e.support < min_support || e.fresh < min_fresh) {
       continue;
     }
@@ -511,7 +527,7 @@ void FootprintDetector::explainGreedily(std::size_t begin, std::size_t end, bool
         std::push_heap(heap_.begin(), heap_.end());
         continue;
       }
-      const Evidence e = evidence(top.candidate);
+      const Evidence e = evidence(top.candidate, min_fresh);
       if (e.fresh < min_fresh) continue;
       heap_.push_back({e.fresh, e.support, top.candidate, round});
       std::push_heap(heap_.begin(), heap_.end());
@@ -687,8 +703,9 @@ const std::vector<Detection>& FootprintDetector::detect(
   // explain: a ghost taken early, before the people whose silhouettes make it, is then seen to add
   // nothing and goes (the crowd set: false positives 108 -> 64, misses 62 -> 66).
   keepOnly([&](std::size_t i) {
-    return evidence(chosen_[i]).fresh <
-           settings_.min_fresh * (was_expected_[i] != 0 ? settings_.expected_fresh_share : 1.0);
+    const double bar =
+        settings_.min_fresh * (was_expected_[i] != 0 ? settings_.expected_fresh_share : 1.0);
+    return evidence(chosen_[i], bar).fresh < bar;
   });
   if (settings_.settle_reach_m > 0) {
     settle();

@@ -228,9 +228,12 @@ class FootprintDetector {
     double support = 1.0;  // the least share of changed pixels in a camera's box
     double fresh = 0.0;    // the mean share of changed pixels not yet explained
   };
-  // With a veto: a candidate seen by fewer cameras, or with less support, is given no fresh
-  // evidence (it fails) without counting what the people found explain.
-  Evidence evidence(std::size_t candidate, double veto_support = 0.0, int veto_cameras = 0) const;
+  // Its fresh evidence is exact when it reaches `bar`; below, it is some figure below the bar (the
+  // count stops once the bar is out of reach). With a veto: a candidate seen by fewer cameras, or
+  // with less support, is given no fresh evidence (it fails) without counting what the people
+  // found explain.
+  Evidence evidence(std::size_t candidate, double bar, double veto_support = 0.0,
+                    int veto_cameras = 0) const;
   mutable std::vector<double> box_changed_;  // evidence()'s: changed pixels in each camera's box
   // The changed pixels in the candidate's strips in camera k, summed once a map: the greedy judges
   // a candidate again and again, and settling the places around each person.
