@@ -113,6 +113,16 @@ std::optional<PixelRectangle> boardInImage(const Camera& camera, const Eigen::Ve
 
 namespace {
 
+// A person's board as the camera sees it, where the camera has the place's foot point in its image.
+std::optional<std::array<Eigen::Vector2d, 4>> boardSeenAt(const Camera& camera,
+                                                          const Eigen::Vector2d& below,
+                                                          const Eigen::Vector2d& at, double width_m,
+                                                          double height_m) {
+  const std::optional<Eigen::Vector2d> foot = camera.worldToStream({at.x(), at.y(), 0.0});
+  if (!foot || !camera.pixelIndexAt(*foot)) return std::nullopt;
+  return boardCorners(camera, below, at, width_m, height_m);
+}
+
 // The least and greatest u of the quadrilateral's part between image rows va and vb (va <= vb).
 std::pair<double, double> acrossBetween(const std::array<Eigen::Vector2d, 4>& quad, double va,
                                         double vb) {
@@ -186,12 +196,8 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
         for (std::size_t k = 0; k < cameras.size(); ++k) {
           const Camera& camera = cameras[k];
           std::array<double, 4> pixel_box{kNaN, kNaN, kNaN, kNaN};
-          // A person's box as the camera sees it, where the camera has the place's foot point.
-          const std::optional<Eigen::Vector2d> foot = camera.worldToStream({x, y, 0.0});
           const auto corners =
-              foot && camera.pixelIndexAt(*foot)
-                  ? boardCorners(camera, below[k], {x, y}, settings.box_width_m, box_height)
-                  : std::nullopt;
+              boardSeenAt(camera, below[k], {x, y}, settings.box_width_m, box_height);
           if (corners) {
             const PixelRectangle board = bounding(*corners);
             pixel_box = {board.u0, board.v0, board.u1, board.v1};
@@ -257,57 +263,7 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   boxes_.resize(pixel_boxes.size() * strips_);
   bounds_.resize(pixel_boxes.size());
   for (std::size_t i = 0; i < pixel_boxes.size(); ++i) {
-    const CameraPlane& plane = planes_[i % planes_.size()];
-    const auto [u_min, v_min, u_max, v_max] = pixel_boxes[i];
-    Box* strips = boxes_.data() + i * strips_;
-    if (std::isnan(u_min)) {
-      std::fill_n(strips, strips_, Box{kNotSeen, kNotSeen, kNotSeen, kNotSeen, 0.0f});
-      bounds_[i] = strips[0];
-      continue;
-    }
-    // Pixel centres are integers, so pixel p spans [p - 0.5, p + 0.5): the rectangle's edges
-    // to the nearest block edges, at least one block.
-    const double b = plane.block;
-    const auto edge = [&](double at, int blocks) {
-      return std::clamp(static_cast<int>(std::lround((at + 0.5) / b)), 0, blocks);
-    };
-    int u0 = edge(u_min, plane.across), u1 = edge(u_max, plane.across);
-    int v0 = edge(v_min, plane.down), v1 = edge(v_max, plane.down);
-    if (u1 == u0) u1 < plane.across ? ++u1 : --u0;
-    if (v1 == v0) v1 < plane.down ? ++v1 : --v0;
-    // The rectangle's rows in strips_ bands, each as wide as the board is between its rows (a
-    // board leans in the image: on the paper's rig it fills 74 % of its rectangle at the median).
-    const int rows = v1 - v0;
-    float pixels = 0.0f;
-    for (std::size_t s = 0; s < strips_; ++s) {
-      const int va = v0 + static_cast<int>(static_cast<std::size_t>(rows) * s / strips_);
-      const int vb = v0 + static_cast<int>(static_cast<std::size_t>(rows) * (s + 1) / strips_);
-      if (va == vb) {
-        strips[s] = {static_cast<std::uint16_t>(u0), static_cast<std::uint16_t>(va),
-                     static_cast<std::uint16_t>(u0), static_cast<std::uint16_t>(va), 0.0f};
-        continue;
-      }
-      int su0 = u0, su1 = u1;
-      if (strips_ > 1) {
-        const std::array<Eigen::Vector2d, 4>& quad = quads[i];
-        const double top = std::max(va * b - 0.5, v_min), bottom = std::min(vb * b - 0.5, v_max);
-        const auto [lo, hi] =
-            top <= bottom ? acrossBetween(quad, top, bottom) : acrossBetween(quad, bottom, bottom);
-        if (lo <= hi) {
-          su0 = std::clamp(edge(lo, plane.across), u0, u1);
-          su1 = std::clamp(edge(hi, plane.across), u0, u1);
-          if (su1 == su0) su1 < u1 ? ++su1 : --su0;
-        }
-      }
-      const int pixels_across = std::min(su1 * plane.block, plane.width) - su0 * plane.block;
-      const int pixels_down = std::min(vb * plane.block, plane.height) - va * plane.block;
-      strips[s] = {static_cast<std::uint16_t>(su0), static_cast<std::uint16_t>(va),
-                   static_cast<std::uint16_t>(su1), static_cast<std::uint16_t>(vb),
-                   static_cast<float>(pixels_across * pixels_down)};
-      pixels += strips[s].pixels;
-    }
-    bounds_[i] = {static_cast<std::uint16_t>(u0), static_cast<std::uint16_t>(v0),
-                  static_cast<std::uint16_t>(u1), static_cast<std::uint16_t>(v1), pixels};
+    placeStrips(i, std::isnan(pixel_boxes[i][0]) ? nullptr : &quads[i]);
   }
   changed_.assign(cameras.size(), nullptr);
   box_changed_.assign(cameras.size(), 0.0);
@@ -331,6 +287,75 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   near_found_.assign(grid_.size(), 0);
   near_expected_.assign(grid_.size(), 0);
   was_expected_.reserve(kRoom);
+}
+
+void FootprintDetector::placeStrips(std::size_t i, const std::array<Eigen::Vector2d, 4>* board) {
+  const CameraPlane& plane = planes_[i % planes_.size()];
+  Box* strips = boxes_.data() + i * strips_;
+  if (board == nullptr) {
+    std::fill_n(strips, strips_, Box{kNotSeen, kNotSeen, kNotSeen, kNotSeen, 0.0f});
+    bounds_[i] = strips[0];
+    return;
+  }
+  const PixelRectangle r = bounding(*board);
+  const double u_min = r.u0, v_min = r.v0, u_max = r.u1, v_max = r.v1;
+  // Pixel centres are integers, so pixel p spans [p - 0.5, p + 0.5): the rectangle's edges
+  // to the nearest block edges, at least one block.
+  const double b = plane.block;
+  const auto edge = [&](double at, int blocks) {
+    return std::clamp(static_cast<int>(std::lround((at + 0.5) / b)), 0, blocks);
+  };
+  int u0 = edge(u_min, plane.across), u1 = edge(u_max, plane.across);
+  int v0 = edge(v_min, plane.down), v1 = edge(v_max, plane.down);
+  if (u1 == u0) u1 < plane.across ? ++u1 : --u0;
+  if (v1 == v0) v1 < plane.down ? ++v1 : --v0;
+  // The rectangle's rows in strips_ bands, each as wide as the board is between its rows (a
+  // board leans in the image: on the paper's rig it fills 74 % of its rectangle at the median).
+  const int rows = v1 - v0;
+  float pixels = 0.0f;
+  for (std::size_t s = 0; s < strips_; ++s) {
+    const int va = v0 + static_cast<int>(static_cast<std::size_t>(rows) * s / strips_);
+    const int vb = v0 + static_cast<int>(static_cast<std::size_t>(rows) * (s + 1) / strips_);
+    if (va == vb) {
+      strips[s] = {static_cast<std::uint16_t>(u0), static_cast<std::uint16_t>(va),
+                   static_cast<std::uint16_t>(u0), static_cast<std::uint16_t>(va), 0.0f};
+      continue;
+    }
+    int su0 = u0, su1 = u1;
+    if (strips_ > 1) {
+      const double top = std::max(va * b - 0.5, v_min), bottom = std::min(vb * b - 0.5, v_max);
+      const auto [lo, hi] = top <= bottom ? acrossBetween(*board, top, bottom)
+                                          : acrossBetween(*board, bottom, bottom);
+      if (lo <= hi) {
+        su0 = std::clamp(edge(lo, plane.across), u0, u1);
+        su1 = std::clamp(edge(hi, plane.across), u0, u1);
+        if (su1 == su0) su1 < u1 ? ++su1 : --su0;
+      }
+    }
+    const int pixels_across = std::min(su1 * plane.block, plane.width) - su0 * plane.block;
+    const int pixels_down = std::min(vb * plane.block, plane.height) - va * plane.block;
+    strips[s] = {static_cast<std::uint16_t>(su0), static_cast<std::uint16_t>(va),
+                 static_cast<std::uint16_t>(su1), static_cast<std::uint16_t>(vb),
+                 static_cast<float>(pixels_across * pixels_down)};
+    pixels += strips[s].pixels;
+  }
+  bounds_[i] = {static_cast<std::uint16_t>(u0), static_cast<std::uint16_t>(v0),
+                static_cast<std::uint16_t>(u1), static_cast<std::uint16_t>(v1), pixels};
+}
+
+void FootprintDetector::replaceCamera(std::size_t k, const Camera& camera) {
+  if (k >= planes_.size()) throw std::invalid_argument("FootprintDetector: no such camera");
+  if (camera.streamWidth() != planes_[k].width || camera.streamHeight() != planes_[k].height) {
+    throw std::invalid_argument("FootprintDetector: a camera's new pose for another image size");
+  }
+  const Eigen::Vector2d below = camera.centreMetres().head<2>();
+  for (std::size_t c = 0; c < candidates_.size(); ++c) {
+    const Candidate& candidate = candidates_[c];
+    const double height = c >= first_low_ ? settings_.object_height_m : settings_.box_height_m;
+    const auto board =
+        boardSeenAt(camera, below, {candidate.x_m, candidate.y_m}, settings_.box_width_m, height);
+    placeStrips(candidate.boxes + k, board ? &*board : nullptr);
+  }
 }
 
 FootprintDetector::CellRange FootprintDetector::cellsWithin(double x_m, double y_m,

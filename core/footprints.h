@@ -28,6 +28,7 @@
 // detections have their largest count.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -156,6 +157,12 @@ class FootprintDetector {
                                        std::span<const CellState> cells,
                                        std::span<const Eigen::Vector2d> expected = {});
 
+  // Camera k's boxes for its new pose (a camera re-posed after a knock, core/repose.h), its image
+  // of the same size; each candidate stays where it is on the floor, and camera k's blocks keep
+  // their size. Allocates nothing, but projects every candidate's board anew: not for a map's
+  // path.
+  void replaceCamera(std::size_t k, const Camera& camera);
+
  private:
   using Box = BlockBox;  // a candidate's rectangle in one camera
   // A camera's changed pixels counted in square blocks (their size: the constructor's).
@@ -182,6 +189,9 @@ class FootprintDetector {
     int row0, column0, row1, column1;
   };
   static void integratePixels(CameraPlane& plane, const std::uint8_t* changed);
+  // Entry i of boxes_ and bounds_ (candidate i / cameras, camera i % cameras) from the board's
+  // corners in the camera's image (nullptr: the camera does not see the place).
+  void placeStrips(std::size_t i, const std::array<Eigen::Vector2d, 4>* board);
   // The changed pixels of a box's `count` strips that the people found cover (their boxes' union
   // is kept as disjoint pieces, so each piece's overlap counts once), and with kBlocks the blocks
   // those pieces cover (the greedy's evidence() needs only the first, and is the detector's hot
