@@ -12,6 +12,7 @@ FootprintsStage::Offer FootprintsStage::emptyOffer(std::span<const std::size_t> 
   Offer offer;
   for (const std::size_t bytes : mask_bytes) offer.changed.emplace_back(bytes);
   offer.used.assign(mask_bytes.size(), 0);
+  offer.generations.assign(mask_bytes.size(), 0);
   offer.cells.assign(cells, CellState::kUnseen);
   return offer;
 }
@@ -39,19 +40,23 @@ FootprintsStage::FootprintsStage(const MapGeometry& map, std::span<const Camera>
       results_(emptyResult(), emptyResult(), emptyResult()),
       for_zones_(emptyFound(), emptyFound(), emptyFound()),
       masks_(mask_bytes.size(), nullptr),
+      boxes_generation_(mask_bytes.size(), 0),
+      reposed_(mask_bytes.size()),
       expected_within_s_(settings.expected_within_s) {
   expected_.reserve(64);
 }
 
 void FootprintsStage::offer(std::uint64_t fused, std::int64_t utime, double time_s,
                             std::span<const std::uint8_t* const> changed,
-                            std::span<const CellState> cells) {
+                            std::span<const CellState> cells,
+                            std::span<const std::uint32_t> generations) {
   Offer& offer = offers_.writeBuffer();
   offer.fused = fused;
   offer.utime = utime;
   offer.time_s = time_s;
   for (std::size_t k = 0; k < offer.changed.size(); ++k) {
     offer.used[k] = changed[k] != nullptr ? 1 : 0;
+    offer.generations[k] = k < generations.size() ? generations[k] : 0;
     if (changed[k] != nullptr) {
       std::memcpy(offer.changed[k].data(), changed[k], offer.changed[k].size());
     }
@@ -59,6 +64,12 @@ void FootprintsStage::offer(std::uint64_t fused, std::int64_t utime, double time
   std::copy(cells.begin(), cells.end(), offer.cells.begin());
   offers_.publish();
   wakeup_.signal();
+}
+
+void FootprintsStage::reposed(std::size_t k, std::uint32_t generation, const Camera& camera) {
+  const std::lock_guard<std::mutex> lock(reposed_lock_);
+  reposed_.at(k) = {generation, camera};
+  reposed_pending_.store(true, std::memory_order_release);
 }
 
 void FootprintsStage::stop() {
@@ -83,6 +94,22 @@ bool FootprintsStage::findNewest() {
   const Offer& offer = offers_.readBuffer();
   for (std::size_t k = 0; k < masks_.size(); ++k) {
     masks_[k] = offer.used[k] != 0 ? offer.changed[k].data() : nullptr;
+    if (masks_[k] == nullptr || offer.generations[k] == boxes_generation_[k]) continue;
+    // Marked under another pose than the boxes': the boxes for it, if it has been handed over.
+    if (reposed_pending_.load(std::memory_order_acquire)) {
+      const std::lock_guard<std::mutex> lock(reposed_lock_);
+      Reposed& reposed = reposed_[k];
+      if (reposed.camera && reposed.generation == offer.generations[k]) {
+        detector_.replaceCamera(k, *reposed.camera);
+        boxes_generation_[k] = reposed.generation;
+        reposed.camera.reset();
+        ++reposes_applied_;
+      }
+      reposed_pending_.store(
+          std::any_of(reposed_.begin(), reposed_.end(), [](const Reposed& r) { return r.camera; }),
+          std::memory_order_relaxed);
+    }
+    if (offer.generations[k] != boxes_generation_[k]) masks_[k] = nullptr;
   }
   expected_.clear();
   tracker_.expectedAt(offer.time_s, expected_within_s_, expected_);

@@ -12,6 +12,8 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <mutex>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -39,9 +41,16 @@ class FootprintsStage {
                   const FootprintSettings& settings, std::span<const std::size_t> mask_bytes);
 
   // Fusion thread: the map just fused, at time_s (CLOCK_MONOTONIC seconds), and each camera's
-  // changed pixels that went into it (nullptr: not used). Copied; never waits.
+  // changed pixels that went into it (nullptr: not used), with the generation of the camera's pose
+  // they were marked under (FusionKernel's; empty: all 0). Copied; never waits.
   void offer(std::uint64_t fused, std::int64_t utime, double time_s,
-             std::span<const std::uint8_t* const> changed, std::span<const CellState> cells);
+             std::span<const std::uint8_t* const> changed, std::span<const CellState> cells,
+             std::span<const std::uint32_t> generations = {});
+  // Camera k's capture thread, once it is re-posed after a knock (core/repose.h): its pose of that
+  // generation. Its masks of that generation count again once this thread has its boxes for it
+  // (FootprintDetector::replaceCamera, on the first such mask); masks of another generation than
+  // its boxes' say nothing. Locks briefly; a map's path takes the lock only after a re-pose.
+  void reposed(std::size_t k, std::uint32_t generation, const Camera& camera);
   // Its own thread: until stop(), each newest offer in turn; after stop(), the last offer left.
   // `found` is signalled after each result is handed over (the publisher's wake-up).
   void run(const EventFd& found);
@@ -65,6 +74,8 @@ class FootprintsStage {
   // there was no new offer. Public for the benchmark (bench/footprints_bench.cpp), which runs the
   // stage's work without its thread.
   bool findNewest();
+  // The re-posed cameras whose boxes the detector has been given (this thread's, for tests).
+  std::uint64_t reposesApplied() const { return reposes_applied_; }
 
  private:
   struct Offer {
@@ -73,6 +84,7 @@ class FootprintsStage {
     double time_s = 0.0;
     std::vector<std::vector<std::uint8_t>> changed;
     std::vector<std::uint8_t> used;
+    std::vector<std::uint32_t> generations;
     std::vector<CellState> cells;
   };
   static Offer emptyOffer(std::span<const std::size_t> mask_bytes, std::size_t cells);
@@ -89,6 +101,17 @@ class FootprintsStage {
   TripleBuffer<FootprintsFound> results_;
   TripleBuffer<FoundForZones> for_zones_;
   std::vector<const std::uint8_t*> masks_;
+  // Each camera's pose that the detector's boxes are for (0: the config's), and the re-posed ones
+  // handed over by reposed() and not yet taken (`reposed_pending_` says which, without the lock).
+  std::vector<std::uint32_t> boxes_generation_;
+  struct Reposed {
+    std::uint32_t generation = 0;
+    std::optional<Camera> camera;
+  };
+  std::mutex reposed_lock_;
+  std::vector<Reposed> reposed_;  // guarded by reposed_lock_
+  std::atomic<bool> reposed_pending_{false};
+  std::uint64_t reposes_applied_ = 0;
   // Where the tracker expects the people it follows on the next map: the detector looks there
   // first (FootprintSettings::expected_reach_m). Reserved for a crowd.
   std::vector<Eigen::Vector2d> expected_;

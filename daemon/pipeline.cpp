@@ -472,6 +472,8 @@ void Pipeline::repose(std::size_t k, const Image& background) {
   }
   kernel_.replaceCamera(k, std::move(result->table));
   ReposedCamera& reposed = result->camera;
+  // The people's boxes for the new pose, made on the footprints thread before its first mask.
+  if (footprints_) footprints_->reposed(k, kernel_.generation(k), reposed.camera);
   camera.changed_pixels.reposed(reposed.camera);
   camera.reposed_images.push_back(std::make_unique<Image>(std::move(reposed.background)));
   camera.reposed_background = camera.reposed_images.back().get();
@@ -625,13 +627,13 @@ void Pipeline::fuse(std::int64_t now) {
     // After the map is on its way: its copy for the detector must not delay it. `out` is only
     // read from here on (the publisher reads it too), and fusion writes to it again only after
     // another publish() has handed it back.
-    // The detector's boxes are the config's poses: a camera re-posed after a knock (generation
-    // above 0) says nothing to it until a reload gives it the new pose (docs/detection.md).
+    // With each mask the generation of the pose it was marked under: a camera re-posed after a
+    // knock counts again once the detector has its boxes for the new pose (repose()).
     for (std::size_t k = 0; k < cameras_.size(); ++k) {
-      const bool counted = ((fused >> k) & 1u) != 0 && generations_[k] == 0;
-      footprint_masks_[k] = counted ? changed_[k] : nullptr;
+      footprint_masks_[k] = ((fused >> k) & 1u) != 0 ? changed_[k] : nullptr;
     }
-    footprints_->offer(out.fused, out.utime, out.time_s, footprint_masks_, out.map.cells);
+    footprints_->offer(out.fused, out.utime, out.time_s, footprint_masks_, out.map.cells,
+                       generations_);
   }
   frame_set_.fused(now);
   maps_fused_.fetch_add(1, std::memory_order_relaxed);

@@ -41,37 +41,14 @@ struct Solid {
 // Camera k's changed pixels: those whose ray passes through a person's cylinder or a solid's.
 std::vector<std::uint8_t> render(const Camera& camera, const std::vector<FloorPoint>& people,
                                  const std::vector<Solid>& others = {}) {
-  std::vector<Solid> solids = others;
-  for (const FloorPoint& person : people) solids.push_back({person});
-  std::vector<std::uint8_t> tiles(changedMaskBytes(kWidth, kHeight_px), 0);
-  const std::size_t across = tilesAcross(kWidth);
-  for (int v = 0; v < kHeight_px; ++v) {
-    for (int u = 0; u < kWidth; ++u) {
-      const std::optional<Ray> ray = camera.streamToRay({u, v});
-      if (!ray) continue;
-      const Eigen::Vector3d o = ray->origin, d = ray->direction;
-      bool hit = false;
-      for (const Solid& solid : solids) {
-        // |o + t d - c| in the floor's plane = r: a quadratic in t.
-        const double ox = o.x() - solid.at.x_m, oy = o.y() - solid.at.y_m;
-        const double a = d.x() * d.x() + d.y() * d.y();
-        const double b = 2 * (ox * d.x() + oy * d.y());
-        const double c = ox * ox + oy * oy - solid.radius * solid.radius;
-        const double discriminant = b * b - 4 * a * c;
-        if (a <= 0 || discriminant < 0) continue;
-        const double t0 = (-b - std::sqrt(discriminant)) / (2 * a);
-        const double t1 = (-b + std::sqrt(discriminant)) / (2 * a);
-        // Inside the cylinder for t in [t0, t1]: hit if z there meets [0, height].
-        const double z0 = o.z() + t0 * d.z(), z1 = o.z() + t1 * d.z();
-        if (t1 > 0 && std::max(z0, z1) >= 0 && std::min(z0, z1) <= solid.height) hit = true;
-      }
-      if (!hit) continue;
-      const std::size_t tile =
-          static_cast<std::size_t>(v / 8) * across + static_cast<std::size_t>(u / 8);
-      tiles[tile * 8 + static_cast<std::size_t>(v % 8)] |= static_cast<std::uint8_t>(1 << (u % 8));
-    }
+  std::vector<testing::Cylinder> cylinders;
+  for (const Solid& solid : others) {
+    cylinders.push_back({solid.at.x_m, solid.at.y_m, solid.radius, solid.height});
   }
-  return tiles;
+  for (const FloorPoint& person : people) {
+    cylinders.push_back({person.x_m, person.y_m, kRadius, kHeight});
+  }
+  return testing::changedWhereCylinders(camera, cylinders, kWidth, kHeight_px);
 }
 
 std::vector<FloorPoint> randomPeople(std::mt19937_64& rng, int count) {

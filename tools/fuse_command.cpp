@@ -276,6 +276,7 @@ int run(const FuseOptions& o) {
                          floor_masks[k]->view(), config.map, column_height);
         kernel.replaceCamera(k, reposed.table);
         changed_pixels[k].reposed(reposed.camera);
+        footprints.reposed(k, reposed.camera);
         reposed_images.push_back(std::make_unique<Image>(std::move(reposed.background)));
         backgrounds[k] = reposed_images.back().get();
         reposed_images.push_back(std::make_unique<Image>(std::move(reposed.floor_mask)));
