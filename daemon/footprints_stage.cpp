@@ -95,19 +95,25 @@ bool FootprintsStage::findNewest() {
   for (std::size_t k = 0; k < masks_.size(); ++k) {
     masks_[k] = offer.used[k] != 0 ? offer.changed[k].data() : nullptr;
     if (masks_[k] == nullptr || offer.generations[k] == boxes_generation_[k]) continue;
-    // Marked under another pose than the boxes': the boxes for it, if it has been handed over.
+    // Marked under another pose than the boxes': the boxes for it, if it has been handed over
+    // (taken under the lock, made outside it: a capture thread never waits for them).
     if (reposed_pending_.load(std::memory_order_acquire)) {
-      const std::lock_guard<std::mutex> lock(reposed_lock_);
-      Reposed& reposed = reposed_[k];
-      if (reposed.camera && reposed.generation == offer.generations[k]) {
-        detector_.replaceCamera(k, *reposed.camera);
-        boxes_generation_[k] = reposed.generation;
-        reposed.camera.reset();
+      std::optional<Camera> pose;
+      {
+        const std::lock_guard<std::mutex> lock(reposed_lock_);
+        Reposed& reposed = reposed_[k];
+        if (reposed.camera && reposed.generation == offer.generations[k]) {
+          pose.swap(reposed.camera);
+        }
+        reposed_pending_.store(std::any_of(reposed_.begin(), reposed_.end(),
+                                           [](const Reposed& r) { return r.camera.has_value(); }),
+                               std::memory_order_relaxed);
+      }
+      if (pose) {
+        detector_.replaceCamera(k, *pose);
+        boxes_generation_[k] = offer.generations[k];
         ++reposes_applied_;
       }
-      reposed_pending_.store(
-          std::any_of(reposed_.begin(), reposed_.end(), [](const Reposed& r) { return r.camera; }),
-          std::memory_order_relaxed);
     }
     if (offer.generations[k] != boxes_generation_[k]) masks_[k] = nullptr;
   }
