@@ -13,6 +13,7 @@
 //                it is absent)
 // Each with one zone over the middle of the floor. Counters: footprints and tracks per map, and
 // operator new calls per map once every map of the sequence has been through the stage once.
+// And room/replace-camera: a camera re-posed after a knock given its new boxes, once.
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -170,6 +171,16 @@ void stageCase(benchmark::State& state, const Sequence* sequence, int strips) {
   }
 }
 
+// What a camera re-posed after a knock costs the footprints thread, once (FootprintDetector::
+// replaceCamera: every candidate's board projected anew for the camera's new pose).
+void replaceCameraCase(benchmark::State& state, const Sequence* sequence) {
+  FootprintDetector detector(sequence->config.map, sequence->cameras, sequence->config.footprints);
+  const Camera turned = sequence->cameras[1].turned({0.0, 0.0175, 0.0});  // a degree
+  const long allocations_before = allocations.load();
+  for (auto _ : state) detector.replaceCamera(1, turned);
+  state.counters["allocations"] = static_cast<double>(allocations.load() - allocations_before);
+}
+
 }  // namespace
 }  // namespace occmap::bench
 
@@ -185,6 +196,7 @@ int main(int argc, char** argv) {
     sequences.push_back(std::make_unique<Sequence>(makeSequence(readText(file), file, 300)));
     benchmark::RegisterBenchmark("room/stage", stageCase, sequences.back().get(), 0);
     benchmark::RegisterBenchmark("room/stage-rectangles", stageCase, sequences.back().get(), 1);
+    benchmark::RegisterBenchmark("room/replace-camera", replaceCameraCase, sequences.back().get());
   }
   {
     const std::filesystem::path file = source / "examples/sim-room.yaml";
