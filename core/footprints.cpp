@@ -165,11 +165,9 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
       throw std::invalid_argument("FootprintDetector: an image wider or higher than 65 534 pixels");
     }
   }
-  // Each candidate's rectangle in each camera, in pixels (u_min, v_min, u_max, v_max; NaN where
-  // the camera does not see the place), before the blocks are chosen.
-  std::vector<std::array<double, 4>> pixel_boxes;
-  std::vector<std::array<Eigen::Vector2d, 4>> quads;  // the boards' corners, beside pixel_boxes
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  // Each candidate's board in each camera, its corners in pixels (none where the camera does not
+  // see the place), before the blocks are chosen.
+  std::vector<std::optional<std::array<Eigen::Vector2d, 4>>> boards;
   std::vector<Eigen::Vector2d> below;  // each camera's centre on the floor
   for (const Camera& camera : cameras) below.push_back(camera.centreMetres().head<2>());
   // People's boxes first, then (object_height_m > 0) the low boxes of what stands lower.
@@ -186,37 +184,23 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
            x += step, ++column) {
         grid_across_ = std::max(grid_across_, static_cast<int>(column) + 1);
         grid_down_ = std::max(grid_down_, static_cast<int>(row) + 1);
-        const Candidate candidate{x, y, cellsWithin(x, y, settings.box_width_m / 4),
-                                  pixel_boxes.size(), 0};
+        const Candidate candidate{x, y, cellsWithin(x, y, settings.box_width_m / 4), boards.size(),
+                                  0};
         if (candidate.near.row1 <= candidate.near.row0 ||
             candidate.near.column1 <= candidate.near.column0) {
           continue;
         }
         bool any = false;
         for (std::size_t k = 0; k < cameras.size(); ++k) {
-          const Camera& camera = cameras[k];
-          std::array<double, 4> pixel_box{kNaN, kNaN, kNaN, kNaN};
-          const auto corners =
-              boardSeenAt(camera, below[k], {x, y}, settings.box_width_m, box_height);
-          if (corners) {
-            const PixelRectangle board = bounding(*corners);
-            pixel_box = {board.u0, board.v0, board.u1, board.v1};
-            any = true;
-          }
-          pixel_boxes.push_back(pixel_box);
-          if (corners) {
-            quads.push_back(*corners);
-          } else {
-            quads.push_back({Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero(),
-                             Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()});
-          }
+          boards.push_back(
+              boardSeenAt(cameras[k], below[k], {x, y}, settings.box_width_m, box_height));
+          any = any || boards.back().has_value();
         }
         if (any) {
           candidates_.push_back(candidate);
           candidates_.back().on_grid = row * static_cast<std::uint32_t>(grid_across_) + column;
         } else {
-          pixel_boxes.resize(candidate.boxes);
-          quads.resize(candidate.boxes);
+          boards.resize(candidate.boxes);
         }
       }
     }
@@ -227,8 +211,11 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   for (std::size_t k = 0; k < planes_.size(); ++k) {
     std::vector<double> widths;
     for (std::size_t c = 0; c < candidates_.size(); ++c) {
-      const std::array<double, 4>& box = pixel_boxes[candidates_[c].boxes + k];
-      if (!std::isnan(box[0])) widths.push_back(box[2] - box[0]);
+      const auto& board = boards[candidates_[c].boxes + k];
+      if (board) {
+        const PixelRectangle box = bounding(*board);
+        widths.push_back(box.u1 - box.u0);
+      }
     }
     CameraPlane& plane = planes_[k];
     plane.block = 1;
@@ -260,11 +247,9 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
     }
   }
   strips_ = static_cast<std::size_t>(std::max(1, settings.box_strips));
-  boxes_.resize(pixel_boxes.size() * strips_);
-  bounds_.resize(pixel_boxes.size());
-  for (std::size_t i = 0; i < pixel_boxes.size(); ++i) {
-    placeStrips(i, std::isnan(pixel_boxes[i][0]) ? nullptr : &quads[i]);
-  }
+  boxes_.resize(boards.size() * strips_);
+  bounds_.resize(boards.size());
+  for (std::size_t i = 0; i < boards.size(); ++i) placeStrips(i, boards[i] ? &*boards[i] : nullptr);
   changed_.assign(cameras.size(), nullptr);
   box_changed_.assign(cameras.size(), 0.0);
   windows_.resize(cameras.size());

@@ -31,24 +31,14 @@ struct Room {
   std::vector<Camera> cameras = testing::cornerRoomCameras(kWidth, kHeight_px);
 };
 
-// An upright cylinder on the floor: a person (kRadius, kHeight) or something wider and lower.
-struct Solid {
-  FloorPoint at;
-  double radius = kRadius;
-  double height = kHeight;
-};
-
-// Camera k's changed pixels: those whose ray passes through a person's cylinder or a solid's.
+// Camera k's changed pixels: those whose ray passes through a person's cylinder (kRadius,
+// kHeight) or another's, wider and lower.
 std::vector<std::uint8_t> render(const Camera& camera, const std::vector<FloorPoint>& people,
-                                 const std::vector<Solid>& others = {}) {
-  std::vector<testing::Cylinder> cylinders;
-  for (const Solid& solid : others) {
-    cylinders.push_back({solid.at.x_m, solid.at.y_m, solid.radius, solid.height});
-  }
+                                 std::vector<testing::Cylinder> others = {}) {
   for (const FloorPoint& person : people) {
-    cylinders.push_back({person.x_m, person.y_m, kRadius, kHeight});
+    others.push_back({person.x_m, person.y_m, kRadius, kHeight});
   }
-  return testing::changedWhereCylinders(camera, cylinders, kWidth, kHeight_px);
+  return testing::changedWhereCylinders(camera, others, kWidth, kHeight_px);
 }
 
 std::vector<FloorPoint> randomPeople(std::mt19937_64& rng, int count) {
@@ -175,7 +165,7 @@ TEST(Footprints, WhatIsWiderThanABoxIsFoundOnce) {
     std::vector<std::vector<std::uint8_t>> masks;
     changed.clear();
     for (const Camera& camera : room.cameras)
-      masks.push_back(render(camera, {}, {{at, 0.35, 0.9}}));
+      masks.push_back(render(camera, {}, {{at.x_m, at.y_m, 0.35, 0.9}}));
     for (const auto& mask : masks) changed.push_back(mask.data());
     const std::vector<Detection>& found = detector.detect(changed, cells);
     ASSERT_EQ(found.size(), 1u) << "at (" << at.x_m << ", " << at.y_m << ")";
@@ -195,7 +185,7 @@ TEST(Footprints, TwoFollowedSideBySideStayTwo) {
     std::vector<std::vector<std::uint8_t>> masks;
     changed.clear();
     for (const Camera& camera : room.cameras)
-      masks.push_back(render(camera, {}, {{at, 0.35, 0.9}}));
+      masks.push_back(render(camera, {}, {{at.x_m, at.y_m, 0.35, 0.9}}));
     for (const auto& mask : masks) changed.push_back(mask.data());
     for (const double angle : {0.0, 1.6}) {
       const Eigen::Vector2d across(0.3 * std::cos(angle), 0.3 * std::sin(angle));
