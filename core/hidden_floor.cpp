@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <limits>
 #include <optional>
+#include <stdexcept>
+#include <utility>
 
 namespace occmap {
 namespace {
@@ -15,7 +17,12 @@ constexpr HiddenFloor::Rectangle kNotInView{kInfinity, kInfinity, -kInfinity, -k
 HiddenFloor::HiddenFloor(const MapGeometry& map, std::span<const std::uint32_t> cells,
                          std::span<const Camera> cameras, const FootprintSettings& settings,
                          double column_height_m)
-    : camera_list_(cameras.begin(), cameras.end()), cameras_(cameras.size()), box_(settings) {
+    : map_(map),
+      cells_(cells.begin(), cells.end()),
+      column_height_m_(column_height_m),
+      camera_list_(cameras.begin(), cameras.end()),
+      cameras_(cameras.size()),
+      box_(settings) {
   for (const Camera& camera : cameras) below_.push_back(camera.centreMetres().head<2>());
   // Room for a crowd found, so that the usual map allocates nothing.
   constexpr std::size_t kRoom = 64;
@@ -23,25 +30,39 @@ HiddenFloor::HiddenFloor(const MapGeometry& map, std::span<const std::uint32_t> 
   shadows_.reserve(kRoom * cameras_);
   centres_.reserve(cells.size());
   sights_.reserve(cells.size() * cameras_);
-  for (const std::uint32_t cell : cells) {
-    const Eigen::Vector2d p = map.cellCentre(std::size_t{cell});
-    centres_.push_back(p.cast<float>());
-    for (const Camera& camera : camera_list_) {
-      // The cell is in view when its centre's floor point is in the image (as the map's tables
-      // have it); its column's pixels then run from there to the top of the column.
-      const std::optional<Eigen::Vector2d> foot = camera.worldToStream({p.x(), p.y(), 0.0});
-      const std::optional<Eigen::Vector2d> top =
-          camera.worldToStream({p.x(), p.y(), column_height_m});
-      if (!foot || !top || !camera.pixelIndexAt(*foot)) {
-        sights_.push_back(kNotInView);
-        continue;
-      }
-      sights_.push_back({static_cast<float>(std::min(foot->x(), top->x())),
-                         static_cast<float>(std::min(foot->y(), top->y())),
-                         static_cast<float>(std::max(foot->x(), top->x())),
-                         static_cast<float>(std::max(foot->y(), top->y()))});
-    }
+  for (std::size_t i = 0; i < cells_.size(); ++i) {
+    centres_.push_back(map.cellCentre(std::size_t{cells_[i]}).cast<float>());
+    for (const Camera& camera : camera_list_) sights_.push_back(sightOf(camera, i));
   }
+}
+
+HiddenFloor::Rectangle HiddenFloor::sightOf(const Camera& camera, std::size_t i) const {
+  const Eigen::Vector2d p = map_.cellCentre(std::size_t{cells_[i]});
+  // The cell is in view when its centre's floor point is in the image (as the map's tables have
+  // it); its column's pixels then run from there to the top of the column.
+  const std::optional<Eigen::Vector2d> foot = camera.worldToStream({p.x(), p.y(), 0.0});
+  const std::optional<Eigen::Vector2d> top = camera.worldToStream({p.x(), p.y(), column_height_m_});
+  if (!foot || !top || !camera.pixelIndexAt(*foot)) return kNotInView;
+  return {static_cast<float>(std::min(foot->x(), top->x())),
+          static_cast<float>(std::min(foot->y(), top->y())),
+          static_cast<float>(std::max(foot->x(), top->x())),
+          static_cast<float>(std::max(foot->y(), top->y()))};
+}
+
+std::vector<HiddenFloor::Rectangle> HiddenFloor::sightsOf(const Camera& camera) const {
+  std::vector<Rectangle> sights;
+  sights.reserve(cells_.size());
+  for (std::size_t i = 0; i < cells_.size(); ++i) sights.push_back(sightOf(camera, i));
+  return sights;
+}
+
+void HiddenFloor::replaceCamera(std::size_t k, Camera&& camera, std::span<const Rectangle> sights) {
+  if (k >= cameras_ || sights.size() != cells_.size()) {
+    throw std::invalid_argument("HiddenFloor: no such camera, or sights of other cells");
+  }
+  below_[k] = camera.centreMetres().head<2>();
+  camera_list_[k] = std::move(camera);
+  for (std::size_t i = 0; i < cells_.size(); ++i) sights_[i * cameras_ + k] = sights[i];
 }
 
 void HiddenFloor::setFound(std::span<const Detection> found) {

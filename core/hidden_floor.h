@@ -44,7 +44,19 @@ class HiddenFloor {
     bool seen() const { return u0 <= u1; }
   };
 
+  // Each cell's column in `camera`'s image (a camera re-posed after a knock, core/repose.h):
+  // projects every cell, so it is made off the map's path and handed to replaceCamera(). Reads
+  // only what the constructor made: safe beside hidden() and setFound() on another thread.
+  std::vector<Rectangle> sightsOf(const Camera& camera) const;
+  // Camera k's new pose and its sightsOf(); nothing allocated.
+  void replaceCamera(std::size_t k, Camera&& camera, std::span<const Rectangle> sights);
+
  private:
+  Rectangle sightOf(const Camera& camera, std::size_t i) const;
+
+  MapGeometry map_;
+  std::vector<std::uint32_t> cells_;
+  double column_height_m_;
   std::vector<Camera> camera_list_;
   std::vector<Eigen::Vector2d> below_;  // each camera's centre on the floor
   std::size_t cameras_;

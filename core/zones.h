@@ -14,6 +14,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -62,6 +63,18 @@ class Zones {
                                         std::span<const Detection> found = {});
 
   std::size_t size() const { return cells_.size(); }
+  // Whether update() tells the floor hidden behind the people found (made with the cameras).
+  bool tellsHiddenFloor() const { return hidden_.has_value(); }
+  // A camera re-posed after a knock (core/repose.h): its zones' cells' columns in its new image,
+  // made off the map's path (core/hidden_floor.h's sightsOf(), on any thread), then handed over
+  // with the pose before the first map fused with it. Without the cameras, nothing to do.
+  std::vector<HiddenFloor::Rectangle> sightsOf(const Camera& camera) const {
+    return hidden_ ? hidden_->sightsOf(camera) : std::vector<HiddenFloor::Rectangle>{};
+  }
+  void replaceCamera(std::size_t k, Camera&& camera,
+                     std::span<const HiddenFloor::Rectangle> sights) {
+    if (hidden_) hidden_->replaceCamera(k, std::move(camera), sights);
+  }
   std::span<const std::uint32_t> cells(std::size_t zone) const { return cells_[zone]; }
 
  private:

@@ -103,6 +103,7 @@ Pipeline::Pipeline(PreparedRig prepared, std::unique_ptr<Bus> bus, PipelineOptio
   changed_.assign(cameras, nullptr);
   footprint_masks_.assign(cameras, nullptr);
   generations_.assign(cameras, 0);
+  zone_poses_.resize(cameras);
   std::vector<occmap::Camera> posed;
   for (const RigCamera& camera : prepared_.rig.cameras()) posed.push_back(*camera.camera);
   if (!config.zones.empty()) {
@@ -474,6 +475,14 @@ void Pipeline::repose(std::size_t k, const Image& background) {
   ReposedCamera& reposed = result->camera;
   // The people's boxes for the new pose, made on the footprints thread before its first mask.
   if (footprints_) footprints_->reposed(k, kernel_.generation(k), reposed.camera);
+  // And the zones' view of the floor hidden behind them: its cells' columns in the new image are
+  // made here (a few milliseconds once per knock), so the fusion thread only copies them.
+  if (zones_ && zones_->tellsHiddenFloor()) {
+    std::vector<HiddenFloor::Rectangle> sights = zones_->sightsOf(reposed.camera);
+    const std::lock_guard<std::mutex> lock(zone_poses_lock_);
+    zone_poses_[k] = {kernel_.generation(k), reposed.camera, std::move(sights)};
+    zone_poses_pending_.store(true, std::memory_order_release);
+  }
   camera.changed_pixels.reposed(reposed.camera);
   camera.reposed_images.push_back(std::make_unique<Image>(std::move(reposed.background)));
   camera.reposed_background = camera.reposed_images.back().get();
@@ -577,6 +586,22 @@ void Pipeline::noteState(std::size_t k, CameraState state, std::int64_t now) {
   }
 }
 
+void Pipeline::takeZonePoses() {
+  const std::lock_guard<std::mutex> lock(zone_poses_lock_);
+  bool waiting = false;
+  for (std::size_t k = 0; k < zone_poses_.size(); ++k) {
+    ZonePose& pose = zone_poses_[k];
+    if (!pose.camera) continue;
+    if (pose.generation != generations_[k]) {
+      waiting = true;
+      continue;
+    }
+    zones_->replaceCamera(k, std::move(*pose.camera), pose.sights);
+    pose.camera.reset();
+  }
+  zone_poses_pending_.store(waiting, std::memory_order_relaxed);
+}
+
 void Pipeline::fuse(std::int64_t now) {
   MapFrame& out = maps_.writeBuffer();
   std::int64_t newest = 0;
@@ -612,6 +637,7 @@ void Pipeline::fuse(std::int64_t now) {
   out.fused = maps_fused_.load(std::memory_order_relaxed);  // fusion alone writes it
   out.time_s = static_cast<double>(now) * 1e-9;
   if (zones_) {
+    if (zone_poses_pending_.load(std::memory_order_acquire)) takeZonePoses();
     // The people found on a map just before this one (the footprints thread is a map or two
     // behind): enough to tell the floor hidden behind them, not to be trusted once they are old.
     constexpr double kFoundMaxAgeS = 0.1;

@@ -129,6 +129,12 @@ TEST(OccmapStatus, SaysWhichCameraWasMovedHowFarItTurnedAndThatItWasRePosed) {
        at = text.find("sim://room/", at)) {
     text.replace(at, std::string("sim://room/").size(), "sim://room-knock/");
   }
+  // The zones judge the floor hidden behind the people found, so that the re-posed camera's pose
+  // is handed to them too (daemon/pipeline.cpp's takeZonePoses, under the sanitizers).
+  text +=
+      "zones:\n"
+      "  - {name: walkway, polygon_m: [[3.5, 1.0], [5.5, 1.0], [5.5, 5.0], [3.5, 5.0]]}\n"
+      "footprints: {hidden_floor_unseen: true}\n";
   const auto config = folder.write("room.yaml", text);
   // The state directory systemd gives it (StateDirectory=): where the corrected calibration goes.
   std::filesystem::create_directories(folder / "state");
@@ -176,6 +182,7 @@ TEST(OccmapStatus, SaysWhichCameraWasMovedHowFarItTurnedAndThatItWasRePosed) {
   result = runCommand({kOccmap, "status"});
   EXPECT_NE(result.out.find("c1: light 1.00 x the background's"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("re-posed 1 time after a knock"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("zone walkway"), std::string::npos) << result.out;
   // The corrected calibration, saved in the file kind it came from (the scene's cameras are
   // Tsai's): the same camera, turned by the degree it was knocked.
   EXPECT_NE(daemon.err().find("the whole calibration is saved to " +

@@ -166,5 +166,33 @@ TEST(Zones, TellHiddenFloorOnlyWhenEveryCameraThatSeesItHasSomeoneFoundInTheWay)
   EXPECT_EQ(room.stateWithOccupied(behind, two).state, ZoneState::kUnseen);
 }
 
+// A camera re-posed after a knock (core/repose.h) judges the hidden floor from its new pose once
+// handed over: here moved to the far corner, from where the person found is no longer in the way.
+TEST(Zones, AReposedCameraJudgesTheHiddenFloorFromItsNewPose) {
+  const HiddenRoom room;
+  const std::vector<Detection> found = {{room.person.x(), room.person.y(), 0.2, 0.5, 0.0}};
+  const Eigen::Vector2d behind = room.person + 1.0 * room.away;
+  Zones zones(room.map, room.spot(behind), room.cameras, room.box, 0.3);
+  ASSERT_TRUE(zones.tellsHiddenFloor());
+  std::vector<CellState> cells(room.map.cellCount(), CellState::kFree);
+  for (const std::uint32_t cell : zones.cells(0)) cells[cell] = CellState::kOccupied;
+  ASSERT_EQ(zones.update(cells, 0.0, found)[0].state, ZoneState::kUnseen);
+  const Camera moved = testing::cornerCamera({6.0, 0.0, 3.0});
+  const std::vector<HiddenFloor::Rectangle> sights = zones.sightsOf(moved);
+  ASSERT_EQ(sights.size(), zones.cells(0).size());
+  EXPECT_THROW(zones.replaceCamera(0, Camera(moved), std::span(sights).first(0)),
+               std::invalid_argument);
+  zones.replaceCamera(0, Camera(moved), sights);
+  EXPECT_EQ(zones.update(cells, 0.1, found)[0].state, ZoneState::kOccupied);
+  // Someone found in its new line of sight hides the spot again.
+  const Eigen::Vector2d second = behind + 1.0 * (Eigen::Vector2d(6.0, 0.0) - behind).normalized();
+  const std::vector<Detection> in_the_way = {{second.x(), second.y(), 0.2, 0.5, 0.0}};
+  EXPECT_EQ(zones.update(cells, 0.2, in_the_way)[0].state, ZoneState::kUnseen);
+  // Zones without the cameras have nothing to re-pose.
+  Zones plain(room.map, room.spot(behind));
+  EXPECT_FALSE(plain.tellsHiddenFloor());
+  EXPECT_TRUE(plain.sightsOf(moved).empty());
+}
+
 }  // namespace
 }  // namespace occmap

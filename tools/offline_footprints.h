@@ -36,9 +36,11 @@ class OfflineFootprints {
   void add(std::uint64_t map, std::span<const std::uint8_t* const> masks,
            std::span<const CellState> cells, const std::vector<sim::SceneObject>* objects);
 
-  // Camera k re-posed after a knock (core/repose.h): its next masks are of `camera`'s pose.
+  // Camera k re-posed after a knock (core/repose.h): its next masks are of `camera`'s pose, and
+  // so is the next map's floor.
   void reposed(std::size_t k, const Camera& camera) {
     if (detector_) detector_->replaceCamera(k, camera);
+    if (zones_.tellsHiddenFloor()) zones_.replaceCamera(k, Camera(camera), zones_.sightsOf(camera));
   }
 
   // Closes the files and prints what was written and its scores; false (said on stderr) when a
