@@ -50,7 +50,8 @@ constexpr std::string_view kFootprintKeys[] = {
     "min_cameras",         "enabled",          "object_height_m",
     "object_min_support",  "object_min_fresh", "settle_reach_m",
     "hidden_floor_unseen", "expected_reach_m", "expected_fresh_share",
-    "expected_within_s",   "two_view_min_own", "box_strips"};
+    "expected_within_s",   "two_view_min_own", "box_strips",
+    "hold_hidden",         "hold_own_factor"};
 constexpr std::string_view kMapKeys[] = {"origin_m", "cell_size_m", "width", "height"};
 constexpr std::string_view kFusionKeys[] = {"threshold", "column_height_m", "max_wait_ms",
                                             "lighting"};
@@ -495,6 +496,10 @@ class ConfigReader {
         footprints.settle_reach_m = real(entry.value, 0.0, false, 5.0, " m");
       } else if (entry.key == "hidden_floor_unseen") {
         footprints.hidden_floor_unseen = boolean(entry.value);
+      } else if (entry.key == "hold_hidden") {
+        footprints.hold_hidden = boolean(entry.value);
+      } else if (entry.key == "hold_own_factor") {
+        footprints.hold_own_factor = real(entry.value, 0.0, true, 5.0, "");
       } else if (entry.key == "expected_reach_m") {
         footprints.expected_reach_m = real(entry.value, 0.0, false, 2.0, " m");
       } else if (entry.key == "expected_fresh_share") {

@@ -269,6 +269,10 @@ FootprintDetector::FootprintDetector(const MapGeometry& map, std::span<const Cam
   for (std::size_t c = 0; c < std::min(first_low_, candidates_.size()); ++c) {
     grid_[candidates_[c].on_grid] = static_cast<std::uint32_t>(c);
   }
+  low_grid_.assign(grid_.size(), kNoCandidate);
+  for (std::size_t c = first_low_; c < candidates_.size(); ++c) {
+    low_grid_[candidates_[c].on_grid] = static_cast<std::uint32_t>(c);
+  }
   near_found_.assign(grid_.size(), 0);
   near_expected_.assign(grid_.size(), 0);
   was_expected_.reserve(kRoom);
@@ -734,6 +738,7 @@ const std::vector<Detection>& FootprintDetector::detect(
     // And two whom one place explains about as well are one.
     mergeDoubles();
   }
+  if (settings_.hold_hidden) holdHidden();
   return detections_;
 }
 

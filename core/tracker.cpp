@@ -12,7 +12,7 @@ namespace occmap {
 Tracker::Tracker(const TrackerSettings& settings) : settings_(settings) {
   if (!(settings.gate_m > 0) || !(settings.position_noise_m > 0) ||
       !(settings.acceleration_m_s2 >= 0) || settings.confirm_hits < 1 ||
-      !(settings.lost_after_s > 0)) {
+      !(settings.lost_after_s > 0) || settings.reported_missed_maps < 0) {
     throw std::invalid_argument("Tracker: gate, noise and times must be positive");
   }
   // Room for a crowd, so that following one allocates nothing (more grow the buffers once).
@@ -54,6 +54,9 @@ void Tracker::correct(State& state, const Detection& detection, double time_s) c
   state.p = (Eigen::Matrix4d::Identity() - gain * h) * state.p;
   state.track.area_m2 = detection.area_m2;
   state.last_s = time_s;
+  state.missed = 0;
+  if (detection.held) return;
+  state.seen_s = time_s;
   ++state.hits;
 }
 
@@ -62,7 +65,10 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
   if (dt < 0) throw std::invalid_argument("Tracker: time went back");
   started_ = true;
   time_s_ = time_s;
-  for (State& state : states_) predict(state, dt);
+  for (State& state : states_) {
+    predict(state, dt);
+    ++state.missed;  // until a detection is given to it
+  }
   // Detections to predicted tracks: the most pairs within the gate, then the least distance.
   cost_.resize(states_.size() * detections.size());
   tier_cost_.resize(cost_.size());
@@ -84,8 +90,11 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
     for (std::size_t t = 0; t < states_.size(); ++t) {
       for (std::size_t d = 0; d < detections.size(); ++d) {
         const std::size_t i = t * detections.size() + d;
-        tier_cost_[i] =
-            states_[t].track.confirmed == confirmed && used_[d] == 0 ? cost_[i] : kNoPair;
+        // Someone held where a confirmed track expected them is for confirmed tracks alone (given
+        // in the same tier as those found: a tier of their own after them, the room's IDF1
+        // 98.6 -> 91.5 %).
+        const bool pairable = used_[d] == 0 && (confirmed || !detections[d].held);
+        tier_cost_[i] = states_[t].track.confirmed == confirmed && pairable ? cost_[i] : kNoPair;
       }
     }
     const std::vector<int>& pairs =
@@ -100,7 +109,7 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
   std::erase_if(states_, [&](const State& state) {
     const bool unconfirmed_too_long =
         !state.track.confirmed && time_s - state.first_s > settings_.confirm_within_s;
-    return time_s - state.last_s > settings_.lost_after_s || unconfirmed_too_long;
+    return time_s - state.seen_s > settings_.lost_after_s || unconfirmed_too_long;
   });
   // Confirmed against the tracks confirmed on earlier maps (their ids come before this map's):
   // two people who appear together are both confirmed, whatever the distance; a double appears
@@ -120,12 +129,12 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
   // New tentative tracks, at rest where they were found, their velocity as uncertain as a
   // walk (2 m/s).
   for (std::size_t d = 0; d < detections.size(); ++d) {
-    if (used_[d] != 0) continue;
+    if (used_[d] != 0 || detections[d].held) continue;
     State state;
     state.x << detections[d].x_m, detections[d].y_m, 0.0, 0.0;
     const double r = settings_.position_noise_m * settings_.position_noise_m;
     state.p = Eigen::Vector4d(r, r, 4.0, 4.0).asDiagonal();
-    state.first_s = state.last_s = time_s;
+    state.first_s = state.last_s = state.seen_s = time_s;
     state.hits = 1;
     state.track.area_m2 = detections[d].area_m2;
     if (settings_.confirm_hits <= 1) {
@@ -136,7 +145,7 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
   }
   out_.clear();
   for (State& state : states_) {
-    if (!state.track.confirmed || time_s - state.last_s > settings_.reported_unseen_s) continue;
+    if (!state.track.confirmed || state.missed > settings_.reported_missed_maps) continue;
     state.track.x_m = state.x(0);
     state.track.y_m = state.x(1);
     state.track.vx_m_s = state.x(2);

@@ -255,7 +255,7 @@ TEST(Config, FootprintsAreReadAndChecked) {
           "0.3, min_fresh: 0.15, min_cameras: 3, min_separation_m: 0.4, enabled: false, "
           "object_height_m: 0, object_min_support: 0.5, object_min_fresh: 0.25, "
           "settle_reach_m: 0.3, hidden_floor_unseen: true, two_view_min_own: 0.3, "
-          "box_strips: 2}\n",
+          "box_strips: 2, hold_hidden: false, hold_own_factor: 2}\n",
       "/etc/occmap/occmap.yaml");
   EXPECT_FALSE(config.footprints.enabled);
   EXPECT_DOUBLE_EQ(config.footprints.object_height_m, 0.0);
@@ -282,6 +282,12 @@ TEST(Config, FootprintsAreReadAndChecked) {
   EXPECT_FALSE(defaults.footprints.hidden_floor_unseen) << "the map's cells alone, unless asked";
   expectError(kMinimal + "footprints: {hidden_floor_unseen: 2}\n", 5,
               "footprints.hidden_floor_unseen", "");
+  EXPECT_FALSE(config.footprints.hold_hidden);
+  EXPECT_TRUE(defaults.footprints.hold_hidden) << "someone followed and hidden is held";
+  EXPECT_DOUBLE_EQ(config.footprints.hold_own_factor, 2.0);
+  EXPECT_DOUBLE_EQ(defaults.footprints.hold_own_factor, 1.5);
+  expectError(kMinimal + "footprints: {hold_own_factor: 0}\n", 5, "footprints.hold_own_factor",
+              "must be > 0");
   expectError(kMinimal + "footprints: {min_support: 1.5}\n", 5, "footprints.min_support",
               "must be <= 1");
   expectError(kMinimal + "footprints: {min_cameras: 0}\n", 5, "footprints.min_cameras", "");

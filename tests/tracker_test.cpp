@@ -131,6 +131,58 @@ TEST(Tracker, AConfirmedTrackKeepsItsPersonFromATentativeOneNearer) {
   EXPECT_GT(tracks[0].x_m, 1.2) << "corrected towards the detection";
 }
 
+// Someone held where a confirmed track expected them (FootprintSettings::hold_hidden) keeps that
+// track reported, but is never seen: held detections alone start and confirm no track, and a track
+// only held ends lost_after_s after it was last found.
+TEST(Tracker, AHeldDetectionKeepsAConfirmedTrackButNeverMakesOne) {
+  const double dt = 1.0 / 30;
+  Detection held{1.0, 1.0, 0.2, 0.5, 1.75};
+  held.held = true;
+  Tracker never;
+  double t = 0.0;
+  for (int i = 0; i < 60; ++i, t += dt) {
+    EXPECT_TRUE(never.update(std::vector<Detection>{held}, t).empty());
+  }
+  Tracker tracker;
+  t = 0.0;
+  std::vector<Track> tracks;
+  for (int i = 0; i < 30; ++i, t += dt) {
+    tracks = tracker.update(std::vector<Detection>{{1.0, 1.0, 0.2, 0.5, 1.75}}, t);
+  }
+  ASSERT_EQ(tracks.size(), 1u);
+  const std::uint32_t id = tracks[0].id;
+  const double found_s = t - dt;
+  // Held on every map from here: reported, as found on this map, until 2 s after it was found.
+  for (; t < found_s + 1.9; t += dt) {
+    tracks = tracker.update(std::vector<Detection>{held}, t);
+    ASSERT_EQ(tracks.size(), 1u) << t;
+    EXPECT_EQ(tracks[0].id, id);
+    EXPECT_EQ(tracks[0].unseen_s, 0.0);
+  }
+  for (; t < found_s + 2.1; t += dt) tracker.update(std::vector<Detection>{held}, t);
+  EXPECT_TRUE(tracker.update(std::vector<Detection>{held}, t).empty()) << "ended";
+}
+
+// A confirmed track missing one map is still reported, missing two it is not (reported_missed_maps
+// 1), and is reported again, the same track, when found.
+TEST(Tracker, AConfirmedTrackIsReportedOneMapWithoutADetection) {
+  const double dt = 1.0 / 30;
+  Tracker tracker;
+  double t = 0.0;
+  const std::vector<Detection> there = {{1.0, 1.0, 0.2, 0.5, 1.75}};
+  std::vector<Track> tracks;
+  for (int i = 0; i < 30; ++i, t += dt) tracks = tracker.update(there, t);
+  ASSERT_EQ(tracks.size(), 1u);
+  const std::uint32_t id = tracks[0].id;
+  EXPECT_EQ(tracker.update({}, t).size(), 1u);
+  t += dt;
+  EXPECT_TRUE(tracker.update({}, t).empty());
+  t += dt;
+  tracks = tracker.update(there, t);
+  ASSERT_EQ(tracks.size(), 1u);
+  EXPECT_EQ(tracks[0].id, id);
+}
+
 TEST(TrackScore, CountsASwitchAndPairsIdentitiesOnceForIdf1) {
   TrackScorer scorer(0.5);
   const std::vector<std::int64_t> person = {7};
