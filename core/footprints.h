@@ -23,7 +23,9 @@
 // cameras) is taken, its boxes' changed pixels become explained, and the rest are judged again,
 // until none adds min_fresh; then each detection is judged again against what all the others
 // explain, settles where its boxes best explain the pixels no one else's cover, and must have
-// changed enough of those (docs/detection.md, "How people are found").
+// changed enough of those (docs/detection.md, "How people are found"). Last, someone a tracker
+// expects and the evidence did not find is held there while hidden (hold_hidden): one view of
+// them is then enough, when no camera that sees the place shows the floor.
 // No I/O, no threads; buffers are made once, nothing is allocated per frame set once the
 // detections have their largest count.
 

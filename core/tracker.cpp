@@ -151,7 +151,8 @@ const std::vector<Track>& Tracker::update(std::span<const Detection> detections,
     state.track.vx_m_s = state.x(2);
     state.track.vy_m_s = state.x(3);
     state.track.age_s = time_s - state.first_s;
-    state.track.unseen_s = time_s - state.last_s;
+    // Since the evidence last found it: a track held while hidden says how long it has been.
+    state.track.unseen_s = time_s - state.seen_s;
     out_.push_back(state.track);
   }
   return out_;

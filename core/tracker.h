@@ -55,9 +55,10 @@ struct Track {
   std::uint32_t id = 0;  // from 1, never reused
   double x_m = 0.0, y_m = 0.0;
   double vx_m_s = 0.0, vy_m_s = 0.0;
-  double area_m2 = 0.0;   // the last detection's
-  double age_s = 0.0;     // since its first detection
-  double unseen_s = 0.0;  // since its last detection, held or found (0: on this map)
+  double area_m2 = 0.0;  // the last detection's
+  double age_s = 0.0;    // since its first detection
+  // Since the evidence last found it (0: found on this map); it grows while the track is held.
+  double unseen_s = 0.0;
   bool confirmed = false;
 };
 
