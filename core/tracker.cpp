@@ -13,7 +13,8 @@ Tracker::Tracker(const TrackerSettings& settings) : settings_(settings) {
   if (!(settings.gate_m > 0) || !(settings.position_noise_m > 0) ||
       !(settings.acceleration_m_s2 >= 0) || settings.confirm_hits < 1 ||
       !(settings.lost_after_s > 0) || settings.reported_missed_maps < 0) {
-    throw std::invalid_argument("Tracker: gate, noise and times must be positive");
+    throw std::invalid_argument(
+        "Tracker: gate, noise and times must be positive, reported_missed_maps not negative");
   }
   // Room for a crowd, so that following one allocates nothing (more grow the buffers once).
   constexpr std::size_t kRoom = 64;
