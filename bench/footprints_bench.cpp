@@ -13,7 +13,8 @@
 //                it is absent)
 // Each with one zone over the middle of the floor. Counters: footprints and tracks per map, and
 // operator new calls per map once every map of the sequence has been through the stage once.
-// And room/replace-camera: a camera re-posed after a knock given its new boxes, once.
+// And room/replace-camera: a camera re-posed after a knock given its new boxes, once; and
+// room/zones-replace-camera: the zones' hidden floor given its new pose, once.
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -181,6 +182,32 @@ void replaceCameraCase(benchmark::State& state, const Sequence* sequence) {
   state.counters["allocations"] = static_cast<double>(allocations.load() - allocations_before);
 }
 
+// What a camera re-posed after a knock costs the zones that judge the hidden floor (the config's
+// zones): its zone cells' columns in the new image, made on its capture thread (Zones::sightsOf,
+// the time per iteration), then copied in on the fusion thread (replaceCamera: fusion_thread_us).
+void zonesReplaceCameraCase(benchmark::State& state, const Sequence* sequence) {
+  const Config& config = sequence->config;
+  Zones zones(config.map, config.zones, sequence->cameras, config.footprints,
+              config.fusion.column_height_m);
+  const Camera turned = sequence->cameras[1].turned({0.0, 0.0175, 0.0});  // a degree
+  std::chrono::steady_clock::duration fusion_time{};
+  std::size_t cells = 0;
+  for (auto _ : state) {
+    const std::vector<HiddenFloor::Rectangle> sights = zones.sightsOf(turned);
+    state.PauseTiming();
+    Camera pose = turned;
+    const auto began = std::chrono::steady_clock::now();
+    zones.replaceCamera(1, std::move(pose), sights);
+    fusion_time += std::chrono::steady_clock::now() - began;
+    cells = sights.size();
+    state.ResumeTiming();
+  }
+  state.counters["cells"] = static_cast<double>(cells);
+  state.counters["fusion_thread_us"] =
+      std::chrono::duration<double, std::micro>(fusion_time).count() /
+      static_cast<double>(std::max<std::int64_t>(1, state.iterations()));
+}
+
 }  // namespace
 }  // namespace occmap::bench
 
@@ -197,6 +224,8 @@ int main(int argc, char** argv) {
     benchmark::RegisterBenchmark("room/stage", stageCase, sequences.back().get(), 0);
     benchmark::RegisterBenchmark("room/stage-rectangles", stageCase, sequences.back().get(), 1);
     benchmark::RegisterBenchmark("room/replace-camera", replaceCameraCase, sequences.back().get());
+    benchmark::RegisterBenchmark("room/zones-replace-camera", zonesReplaceCameraCase,
+                                 sequences.back().get());
   }
   {
     const std::filesystem::path file = source / "examples/sim-room.yaml";
