@@ -470,8 +470,7 @@ void FootprintDetector::explainGreedily(std::size_t begin, std::size_t end, bool
   // overlap, so it is at least a box's width from anyone found (at min_separation_m, a chair's
   // seat beside the person's box found on its back was a second detection: sim://room-crowd's
   // first 300 maps, false positives 443 -> 363 with the tracker's order; EPFL's crowd the same).
-  const double separation = low ? std::max(settings_.min_separation_m, settings_.box_width_m)
-                                : settings_.min_separation_m;
+  const double separation = separationFor(low);
   const double separation2 = separation * separation;
   const auto tooClose = [&](std::size_t c, double x_m, double y_m) {
     const double dx = candidates_[c].x_m - x_m, dy = candidates_[c].y_m - y_m;

@@ -319,6 +319,19 @@ class FootprintDetector {
   void settle();
   void mergeDoubles();
   void holdHidden();
+  // How near another one found may be to a person found (min_separation_m) or to something lower
+  // (a box's width at least: the two footprints do not overlap).
+  double separationFor(bool low) const {
+    return low ? std::max(settings_.min_separation_m, settings_.box_width_m)
+               : settings_.min_separation_m;
+  }
+  // Whether someone found stands nearer than distance_m to the floor point.
+  bool anyFoundWithin(double x_m, double y_m, double distance_m) const {
+    return std::any_of(detections_.begin(), detections_.end(), [&](const Detection& d) {
+      const double dx = d.x_m - x_m, dy = d.y_m - y_m;
+      return dx * dx + dy * dy < distance_m * distance_m;
+    });
+  }
   std::span<const Eigen::Vector2d> expected_;  // detect()'s, during the call
   // Whether the places where detections i and j are expected (the nearest to each within a box's
   // width) are two, a box's width apart or more: two people followed, whom step 10 leaves two.

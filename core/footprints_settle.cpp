@@ -186,38 +186,31 @@ void FootprintDetector::mergeDoubles() {
 // floor) and whose own part changed hold_own_factor times that: a person's box first, then a low
 // one. Taken one after another, each held one's boxes explained for the next.
 void FootprintDetector::holdHidden() {
-  const double clear2 = settings_.box_width_m * settings_.box_width_m;
   const double reach2 = settings_.expected_reach_m * settings_.expected_reach_m;
   const int steps = static_cast<int>(std::ceil(settings_.expected_reach_m / step_));
   for (const Eigen::Vector2d& at : expected_) {
-    const bool found = std::any_of(detections_.begin(), detections_.end(), [&](const Detection& d) {
-      const double dx = d.x_m - at.x(), dy = d.y_m - at.y();
-      return dx * dx + dy * dy < clear2;
-    });
-    if (found) continue;
+    if (anyFoundWithin(at.x(), at.y(), settings_.box_width_m)) continue;
     const auto [row, column] = gridPlaceOf(at.x(), at.y());
     if (row < 0 || row >= grid_down_ || column < 0 || column >= grid_across_) continue;
+    // What everyone found explains, near both kinds of boxes within reach.
+    forgetExplained();
+    clearWindows();
+    for (const std::vector<std::uint32_t>* grid : {&grid_, &low_grid_}) {
+      forEachNearIn(*grid, row, column, steps, [&](std::size_t n) { widenWindows(n); });
+    }
+    for (const std::size_t c : chosen_) markExplained(c, true);
     for (const bool low : {false, true}) {
-      const std::vector<std::uint32_t>& grid = low ? low_grid_ : grid_;
       const double bar = low ? settings_.object_min_support : settings_.min_support;
-      forgetExplained();
-      clearWindows();
-      forEachNearIn(grid, row, column, steps, [&](std::size_t n) { widenWindows(n); });
-      for (const std::size_t c : chosen_) markExplained(c, true);
       std::size_t best = SIZE_MAX;
       Fit best_fit;
       best_fit.gain = -1e9;
-      forEachNearIn(grid, row, column, steps, [&](std::size_t n) {
+      forEachNearIn(low ? low_grid_ : grid_, row, column, steps, [&](std::size_t n) {
         const Candidate& there = candidates_[n];
         const double dx = there.x_m - at.x(), dy = there.y_m - at.y();
-        if (dx * dx + dy * dy > reach2 || occupiedWithin(there.near) == 0) return;
-        const double apart = low ? settings_.box_width_m : settings_.min_separation_m;
-        const bool crowded =
-            std::any_of(detections_.begin(), detections_.end(), [&](const Detection& d) {
-              const double ox = d.x_m - there.x_m, oy = d.y_m - there.y_m;
-              return ox * ox + oy * oy < apart * apart;
-            });
-        if (crowded) return;
+        if (dx * dx + dy * dy > reach2 || occupiedWithin(there.near) == 0 ||
+            anyFoundWithin(there.x_m, there.y_m, separationFor(low))) {
+          return;
+        }
         const Fit f = fit(n);
         if (f.cameras == 0 || f.support < bar || f.own < settings_.hold_own_factor * bar) return;
         if (f.gain > best_fit.gain) {

@@ -67,9 +67,7 @@ void FootprintsStage::offer(std::uint64_t fused, std::int64_t utime, double time
 }
 
 void FootprintsStage::reposed(std::size_t k, std::uint32_t generation, const Camera& camera) {
-  const std::lock_guard<std::mutex> lock(reposed_lock_);
-  reposed_.at(k) = {generation, camera};
-  reposed_pending_.store(true, std::memory_order_release);
+  reposed_.give(k, generation, camera);
 }
 
 void FootprintsStage::stop() {
@@ -96,24 +94,11 @@ bool FootprintsStage::findNewest() {
     masks_[k] = offer.used[k] != 0 ? offer.changed[k].data() : nullptr;
     if (masks_[k] == nullptr || offer.generations[k] == boxes_generation_[k]) continue;
     // Marked under another pose than the boxes': the boxes for it, if it has been handed over
-    // (taken under the lock, made outside it: a capture thread never waits for them).
-    if (reposed_pending_.load(std::memory_order_acquire)) {
-      std::optional<Camera> pose;
-      {
-        const std::lock_guard<std::mutex> lock(reposed_lock_);
-        Reposed& reposed = reposed_[k];
-        if (reposed.camera && reposed.generation == offer.generations[k]) {
-          pose.swap(reposed.camera);
-        }
-        reposed_pending_.store(std::any_of(reposed_.begin(), reposed_.end(),
-                                           [](const Reposed& r) { return r.camera.has_value(); }),
-                               std::memory_order_relaxed);
-      }
-      if (pose) {
-        detector_.replaceCamera(k, *pose);
-        boxes_generation_[k] = offer.generations[k];
-        ++reposes_applied_;
-      }
+    // (made here, outside the hand-over's lock: a capture thread never waits for them).
+    if (const std::optional<Camera> pose = reposed_.take(k, offer.generations[k])) {
+      detector_.replaceCamera(k, *pose);
+      boxes_generation_[k] = offer.generations[k];
+      ++reposes_applied_;
     }
     if (offer.generations[k] != boxes_generation_[k]) masks_[k] = nullptr;
   }

@@ -23,6 +23,7 @@
 #include "core/map_geometry.h"
 #include "core/tracker.h"
 #include "core/triple_buffer.h"
+#include "daemon/pose_handover.h"
 
 namespace occmap {
 
@@ -102,15 +103,9 @@ class FootprintsStage {
   TripleBuffer<FoundForZones> for_zones_;
   std::vector<const std::uint8_t*> masks_;
   // Each camera's pose that the detector's boxes are for (0: the config's), and the re-posed ones
-  // handed over by reposed() and not yet taken (`reposed_pending_` says which, without the lock).
+  // handed over by reposed() and not yet taken.
   std::vector<std::uint32_t> boxes_generation_;
-  struct Reposed {
-    std::uint32_t generation = 0;
-    std::optional<Camera> camera;
-  };
-  std::mutex reposed_lock_;
-  std::vector<Reposed> reposed_;  // guarded by reposed_lock_
-  std::atomic<bool> reposed_pending_{false};
+  PoseHandover<Camera> reposed_;
   std::uint64_t reposes_applied_ = 0;
   // Where the tracker expects the people it follows on the next map: the detector looks there
   // first (FootprintSettings::expected_reach_m). Reserved for a crowd.

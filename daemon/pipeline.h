@@ -19,7 +19,6 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -38,6 +37,7 @@
 #include "core/triple_buffer.h"
 #include "core/zones.h"
 #include "daemon/footprints_stage.h"
+#include "daemon/pose_handover.h"
 #include "daemon/previewer.h"
 #include "daemon/remote_control.h"
 #include "daemon/reposer.h"
@@ -197,8 +197,6 @@ class Pipeline {
   void fusionLoop();
   void noteState(std::size_t camera, CameraState state, std::int64_t now);
   void fuse(std::int64_t now);
-  // Fusion thread: the zones take a re-posed camera's pose with its first frame of that pose.
-  void takeZonePoses();
   void publisherLoop();
   // The publisher's part of the footprints: the zones of the map just sent, and the tracks found
   // since, under the seq their map was sent with.
@@ -230,15 +228,12 @@ class Pipeline {
   std::optional<Zones> zones_;
   // A camera re-posed after a knock, for the zones' hidden floor (Zones::tellsHiddenFloor): its
   // pose and its zone cells' columns in the new image, made on its capture thread (repose()) and
-  // taken by the fusion thread (`zone_poses_pending_` says whether any waits, without the lock).
+  // taken by the fusion thread with the camera's first frame of that pose.
   struct ZonePose {
-    std::uint32_t generation = 0;  // the kernel's, of the table for this pose
-    std::optional<occmap::Camera> camera;
+    occmap::Camera camera;
     std::vector<HiddenFloor::Rectangle> sights;
   };
-  std::mutex zone_poses_lock_;
-  std::vector<ZonePose> zone_poses_;  // per camera, guarded by zone_poses_lock_
-  std::atomic<bool> zone_poses_pending_{false};
+  PoseHandover<ZonePose> zone_poses_;
 
   // The people on the maps: their own thread (footprints_stage.h), nullptr when off.
   std::unique_ptr<FootprintsStage> footprints_;

@@ -130,7 +130,7 @@ TEST(OccmapStatus, SaysWhichCameraWasMovedHowFarItTurnedAndThatItWasRePosed) {
     text.replace(at, std::string("sim://room/").size(), "sim://room-knock/");
   }
   // The zones judge the floor hidden behind the people found, so that the re-posed camera's pose
-  // is handed to them too (daemon/pipeline.cpp's takeZonePoses, under the sanitizers).
+  // is handed to them too (daemon/pose_handover.h, in daemon/pipeline.cpp, under the sanitizers).
   text +=
       "zones:\n"
       "  - {name: walkway, polygon_m: [[3.5, 1.0], [5.5, 1.0], [5.5, 5.0], [3.5, 5.0]]}\n"
