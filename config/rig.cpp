@@ -6,6 +6,7 @@
 #include <exception>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <system_error>
 #include <thread>
@@ -295,19 +296,48 @@ bool seesTheFloor(const Camera& camera) {
   return false;
 }
 
-// Whether the camera, seeing no floor, would see it with its world frame taken as left-handed:
-// the floor behind it in every pixel is then most likely a calibration made in Unity's frame
-// (MultiviewX), whose points cv::projectPoints still lands in the image.
-bool seesTheFloorMirrored(const Camera& camera) {
+// The camera with its world frame taken as left-handed, or none when it is not an OpenCV camera or
+// is left-handed already.
+std::optional<Camera> mirroredTwin(const Camera& camera) {
   const auto* opencv = dynamic_cast<const OpenCvCamera*>(&camera.model());
   if (opencv == nullptr || opencv->parameters().world_frame == WorldFrame::kLeftHanded) {
-    return false;
+    return std::nullopt;
   }
   OpenCvParameters mirrored = opencv->parameters();
   mirrored.world_frame = WorldFrame::kLeftHanded;
-  // Whether a ray meets the floor does not depend on the unit.
-  return seesTheFloor(Camera(std::make_shared<OpenCvCamera>(mirrored), LengthUnit::kMetre,
-                             camera.streamWidth(), camera.streamHeight(), camera.region()));
+  LengthUnit units = LengthUnit::kMetre;
+  for (const LengthUnit unit : {LengthUnit::kMillimetre, LengthUnit::kCentimetre}) {
+    if (metresPerUnit(unit) == camera.metresPerUnit()) units = unit;
+  }
+  return Camera(std::make_shared<OpenCvCamera>(mirrored), units, camera.streamWidth(),
+                camera.streamHeight(), camera.region());
+}
+
+// Whether the camera would see the map with its world frame taken as left-handed: a camera that
+// sees none of it, but would mirrored, most likely has a calibration made in Unity's frame
+// (MultiviewX), whose points cv::projectPoints still lands in the image. Looked at over a 33 x 33
+// grid of the map's cells, so that a camera that also sees past the horizon (whose mirrored rays
+// meet the floor far from the map) is named too.
+bool seesTheMapMirrored(const Camera& camera, const MapGeometry& map) {
+  const std::optional<Camera> mirrored = mirroredTwin(camera);
+  if (!mirrored) return false;
+  constexpr int kSteps = 32;
+  for (int i = 0; i <= kSteps; ++i) {
+    for (int j = 0; j <= kSteps; ++j) {
+      const Eigen::Vector2d cell =
+          map.cellCentre((map.height - 1) * i / kSteps, (map.width - 1) * j / kSteps);
+      const std::optional<Eigen::Vector2d> pixel =
+          mirrored->worldToStream(Eigen::Vector3d(cell.x(), cell.y(), 0.0));
+      if (pixel && mirrored->pixelIndexAt(*pixel)) return true;
+    }
+  }
+  return false;
+}
+
+// Whether the camera, seeing no floor, would see it with its world frame taken as left-handed.
+bool seesTheFloorMirrored(const Camera& camera) {
+  const std::optional<Camera> mirrored = mirroredTwin(camera);
+  return mirrored && seesTheFloor(*mirrored);
 }
 
 }  // namespace
@@ -417,15 +447,17 @@ std::vector<CarveTable> Rig::buildTables(double column_height_m,
       // Not an error: the camera runs on with an empty table and the others make the map. But
       // the user is told which of the two usual slips it is, so that they know what to fix.
       const Camera& camera = *cameras_[k].camera;
+      const bool left_handed = seesTheMapMirrored(camera, config_.map) ||
+                               (!seesTheFloor(camera) && seesTheFloorMirrored(camera));
       const std::string why =
-          seesTheFloor(camera)
-              ? "check its calibration (and calibration_units) against the map's origin_m and "
-                "size"
-          : seesTheFloorMirrored(camera)
-              ? "every floor point lies behind the camera (negative depth), as when the "
+          left_handed
+              ? "the map's floor lies behind the camera (negative depth), as when the "
                 "extrinsics were made in a left-handed world frame (Unity's, MultiviewX's), "
                 "where cv::projectPoints still lands them in the image: if so, add "
                 "world_frame: left-handed to the camera"
+          : seesTheFloor(camera)
+              ? "check its calibration (and calibration_units) against the map's origin_m and "
+                "size"
               : "no ray of its image meets the floor in front of it (the floor is behind the "
                 "camera or above its view): check the rotation in its calibration";
       warnings_.push_back("camera '" + cameras_[k].name +

@@ -13,6 +13,7 @@
 #include <optional>
 #include <thread>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <occmap/status_t.hpp>
 #include <opencv2/core.hpp>
@@ -668,7 +669,7 @@ TEST(FloorBehindTheCamera, ALeftHandedCalibrationIsNamedAndWorldFrameLeftHandedS
   ASSERT_EQ(right.warnings().size(), 1u);
   const std::string& warning = right.warnings()[0];
   EXPECT_NE(warning.find("camera 'down' sees no cell of the map"), std::string::npos) << warning;
-  EXPECT_NE(warning.find("every floor point lies behind the camera (negative depth)"),
+  EXPECT_NE(warning.find("the map's floor lies behind the camera (negative depth)"),
             std::string::npos)
       << warning;
   EXPECT_NE(warning.find("left-handed world frame"), std::string::npos) << warning;
@@ -689,6 +690,49 @@ TEST(FloorBehindTheCamera, ALeftHandedCalibrationIsNamedAndWorldFrameLeftHandedS
   EXPECT_GT(twin_tables[0].cellsInView(), 400u);  // about 25 x 25 cells: 1 m square of 1.2 m
   EXPECT_EQ(left_tables[0].cellsInView(), twin_tables[0].cellsInView());
   EXPECT_EQ(left_tables[0].entries(), twin_tables[0].entries());
+}
+
+// MultiviewX's cameras look across the floor, past the horizon: read as right-handed, their rays
+// above the horizon meet the floor somewhere (the camera is then mirrored below it), so "sees
+// the floor" alone cannot tell a left-handed calibration from a wrong origin_m. The map seen
+// mirrored does.
+TEST(FloorBehindTheCamera, ALeftHandedCameraThatSeesTheHorizonIsNamedToo) {
+  const Site site;
+  {
+    cv::FileStorage storage(site.path("intr.xml"), cv::FileStorage::WRITE);
+    storage << "camera_matrix" << (cv::Mat_<double>(3, 3) << 200, 0, 49.5, 0, 200, 49.5, 0, 0, 1)
+            << "distortion_coefficients" << cv::Mat::zeros(1, 5, CV_64F);
+  }
+  // 2 m up, 5.5 m south of the map, looking north 12 degrees down: the image's top row (14
+  // degrees above the axis) is above the horizon, the map (18 to 22 degrees down) in view.
+  const double down = 12.0 * M_PI / 180.0;
+  Eigen::Matrix3d r;  // world to camera: rows are the camera's right, down and forward
+  r << 1, 0, 0, 0, -std::sin(down), -std::cos(down), 0, std::cos(down), -std::sin(down);
+  const Eigen::Vector3d t = -r * Eigen::Vector3d(0.0, -5.5, 2.0);
+  // The same camera in a left-handed world, its frame mirrored: R' = -R diag(1, 1, -1), t' = -t.
+  const Eigen::Matrix3d left = -r * Eigen::Vector3d(1, 1, -1).asDiagonal();
+  const Eigen::AngleAxisd turn(left);
+  const Eigen::Vector3d rvec = turn.angle() * turn.axis();
+  writeText(site.folder / "extr.xml",
+            "<?xml version=\"1.0\"?>\n<opencv_storage>\n<rvec>" + std::to_string(rvec.x()) + " " +
+                std::to_string(rvec.y()) + " " + std::to_string(rvec.z()) + "</rvec>\n<tvec>" +
+                std::to_string(-t.x()) + " " + std::to_string(-t.y()) + " " +
+                std::to_string(-t.z()) + "</tvec>\n</opencv_storage>\n");
+  const std::string calibration = "{intrinsics: intr.xml, extrinsics: extr.xml}";
+  writeText(site.folder / "right.yaml", filesConfig("", "frames", calibration));
+  writeText(site.folder / "left.yaml",
+            filesConfig("    world_frame: left-handed\n", "frames", calibration));
+
+  Rig right = Rig::open(loadConfig(site.folder / "right.yaml"));
+  ASSERT_EQ(right.buildTables(0.0).at(0).cellsInView(), 0u);
+  ASSERT_EQ(right.warnings().size(), 1u);
+  const std::string& warning = right.warnings()[0];
+  EXPECT_NE(warning.find("add world_frame: left-handed"), std::string::npos) << warning;
+  EXPECT_EQ(warning.find("origin_m"), std::string::npos) << warning;
+
+  Rig mirrored = Rig::open(loadConfig(site.folder / "left.yaml"));
+  EXPECT_GT(mirrored.buildTables(0.0).at(0).cellsInView(), 400u);
+  EXPECT_TRUE(mirrored.warnings().empty()) << mirrored.warnings()[0];
 }
 
 // ----------------------------------------------------------------------------------------------

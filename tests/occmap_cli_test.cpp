@@ -560,6 +560,14 @@ TEST(OccmapProject, OpenCvXmlIntrinsicsAndExtrinsicsGiveOpenCvsPixel) {
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("inside the 1920x1080 calibration frame"), std::string::npos)
       << result.out;
+  EXPECT_NE(result.out.find(" m  (inside"), std::string::npos) << result.out;
+  // WILDTRACK's world is in centimetres: --units names them; the numbers are the file's own.
+  result =
+      runCommand({kOccmap, "project", "--intrinsics", intrinsics, "--extrinsics", extrinsics,
+                  "--image-size", "1920", "1080", "--units", "cm", "--world", "0.5", "1.5", "0"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find(u), std::string::npos) << result.out << " should hold " << u;
+  EXPECT_NE(result.out.find(" cm  (inside"), std::string::npos) << result.out;
 }
 
 // MultiviewX's extrinsics, made in Unity's left-handed world: every floor point at negative depth.

@@ -19,6 +19,7 @@ struct ProjectOptions {
   std::string extrinsics;
   std::vector<int> image_size;
   std::string world_frame = "right-handed";
+  std::string units;  // empty: the calibration kind's default
   std::vector<double> world;
   std::vector<double> pixel;
   double z = 0.0;
@@ -41,7 +42,8 @@ int run(const ProjectOptions& o) {
   const CalibrationFiles files = o.calibration.empty()
                                      ? CalibrationFiles{o.intrinsics, o.extrinsics}
                                      : CalibrationFiles{o.calibration, std::nullopt};
-  const LoadedCalibration calibration = loadCalibration(files, std::nullopt, frame);
+  const LoadedCalibration calibration =
+      loadCalibration(files, o.units.empty() ? std::nullopt : parseLengthUnit(o.units), frame);
   const std::shared_ptr<const CameraModel> sized =
       o.image_size.empty() ? calibration.model
                            : calibration.modelFor(o.image_size[0], o.image_size[1]);
@@ -152,6 +154,12 @@ Command addProjectCommand(CLI::App& app) {
                    "right-handed (OpenCV's, the default) or left-handed (Unity's, MultiviewX's: "
                    "floor points at negative depth that cv::projectPoints still projects)")
       ->check(CLI::IsMember({"right-handed", "left-handed"}));
+  command
+      ->add_option("--units", options->units,
+                   "The calibration's length unit, as calibration_units in a config (mm, cm or "
+                   "m; cm for WILDTRACK): it names the unit of what is printed, which is the "
+                   "file's own (default: mm for Tsai XML, m for OpenCV)")
+      ->check(CLI::IsMember({"mm", "cm", "m"}));
   CLI::Option* world =
       command->add_option("--world", options->world, "World point X Y Z to project to a pixel")
           ->expected(3);
