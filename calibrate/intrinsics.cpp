@@ -4,6 +4,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <set>
 
 #include <opencv2/calib3d.hpp>
@@ -157,6 +158,12 @@ IntrinsicsResult calibrateIntrinsics(const BoardSpec& spec, const std::vector<Bo
   report.refusal = foldInsidePicture(camera);
   if (report.refusal.empty()) result.camera = camera;
   return result;
+}
+
+double principalPointTurnDeg(const OpenCvParameters& camera, const IntrinsicsReport& report) {
+  const double across = std::atan(report.cx_sigma_px / camera.fx);
+  const double down = std::atan(report.cy_sigma_px / camera.fy);
+  return std::max(across, down) * 180.0 / std::numbers::pi;
 }
 
 std::string foldInsidePicture(const OpenCvParameters& camera) {

@@ -62,6 +62,15 @@ OpenCvParameters openCvIntrinsics(const cv::Mat& camera_matrix, const cv::Mat& d
 // border pixel has one. Past that radius OpenCV folds points back into the picture.
 std::string foldInsidePicture(const OpenCvParameters& camera);
 
+// How far the principal point's uncertainty (one standard deviation, the larger axis) alone may
+// turn a pose found with these intrinsics, in degrees: `occmap calibrate pose` takes the principal
+// point as given, so σ px off turns the camera by atan(σ / f). Above 0.1 degrees
+// (kPrincipalTurnWarningDeg) `occmap calibrate intrinsics` says so: on the simulator's 6 mm
+// cameras a 7 x 5 ChArUco board's ±2.5 to 2.8 px (0.24 to 0.27 degrees) left the pose 0.15
+// degrees off, a 9 x 6 chessboard's ±0.8 px (0.08 degrees) 0.05 (docs/calibration.md).
+double principalPointTurnDeg(const OpenCvParameters& camera, const IntrinsicsReport& report);
+inline constexpr double kPrincipalTurnWarningDeg = 0.1;
+
 // The camera's intrinsics from its pictures of the board (`views`: the corners found in each,
 // empty where none were), all of `image_size`, with OpenCV's 5-coefficient model (k1 k2 p1 p2 k3)
 // and no skew: cv::calibrateCamera on each view's own corners, so that partly seen ChArUco boards

@@ -454,7 +454,8 @@ std::vector<CarveTable> Rig::buildTables(double column_height_m,
               ? "the map's floor lies behind the camera (negative depth), as when the "
                 "extrinsics were made in a left-handed world frame (Unity's, MultiviewX's), "
                 "where cv::projectPoints still lands them in the image: if so, add "
-                "world_frame: left-handed to the camera"
+                "world_frame: left-handed to the camera (if not, its rotation turns it away "
+                "from the map)"
           : seesTheFloor(camera)
               ? "check its calibration (and calibration_units) against the map's origin_m and "
                 "size"

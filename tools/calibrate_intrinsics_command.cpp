@@ -1,5 +1,6 @@
 // occmap calibrate intrinsics / board: a camera's intrinsics from pictures of a printed board, and
 // the board to print.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -150,6 +151,16 @@ int runIntrinsics(const IntrinsicsOptions& o) {
   const auto& k = camera.distortion;  // the usual model: k1 k2 p1 p2 k3, the rest zero
   std::printf("distortion k1 %.6g  k2 %.6g  p1 %.6g  p2 %.6g  k3 %.6g\n", k[0], k[1], k[2], k[3],
               k[4]);
+  const double turn_deg = principalPointTurnDeg(camera, report);
+  if (turn_deg > kPrincipalTurnWarningDeg) {
+    std::fprintf(stderr,
+                 "occmap calibrate intrinsics: warning: the principal point is known to +- %.1f "
+                 "px (one standard deviation), which alone may turn the pose found from it by "
+                 "%.2f degrees: take more pictures, tilted more and out to the picture's corners, "
+                 "or use a chessboard, whose corners are found more precisely than a ChArUco "
+                 "board's (docs/calibration.md)\n",
+                 std::max(report.cx_sigma_px, report.cy_sigma_px), turn_deg);
+  }
   if (report.rms_px > 1.0) {
     std::fprintf(stderr,
                  "occmap calibrate intrinsics: warning: an error over 1 px: look for blurred "
