@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calibrate/aruco_dictionary.h"
+#include "calibrate/charuco_refine.h"
 
 namespace occmap {
 namespace {
@@ -286,6 +287,7 @@ BoardCorners findCharucoCorners(const cv::Ptr<cv::aruco::CharucoBoard>& board, c
     found.image_points.push_back(corners[i] - cv::Point2f(0.5f, 0.5f));
     found.board_points.push_back(board->chessboardCorners[static_cast<std::size_t>(ids[i])]);
   }
+  refineCharucoCorners(grey, *board, found);
   return found;
 }
 

@@ -66,8 +66,8 @@ std::string foldInsidePicture(const OpenCvParameters& camera);
 // turn a pose found with these intrinsics, in degrees: `occmap calibrate pose` takes the principal
 // point as given, so σ px off turns the camera by atan(σ / f). Above 0.1 degrees
 // (kPrincipalTurnWarningDeg) `occmap calibrate intrinsics` says so: on the simulator's 6 mm
-// cameras a 7 x 5 ChArUco board's ±2.5 to 2.8 px (0.24 to 0.27 degrees) left the pose 0.15
-// degrees off, a 9 x 6 chessboard's ±0.8 px (0.08 degrees) 0.05 (docs/calibration.md).
+// cameras 15 pictures of a 7 x 5 ChArUco board gave ±1.7 px (0.16 degrees) and left the pose
+// 0.12 to 0.13 degrees off, a 9 x 6 chessboard's ±0.8 px (0.08 degrees) 0.05 (docs/calibration.md).
 double principalPointTurnDeg(const OpenCvParameters& camera, const IntrinsicsReport& report);
 inline constexpr double kPrincipalTurnWarningDeg = 0.1;
 

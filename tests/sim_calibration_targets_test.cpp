@@ -282,12 +282,14 @@ TEST_F(HeldTargets, ChArUcoCornersAreFoundWhereTheBoardsCornersProject) {
       "ChArUco: %zu corners in %zu views, error median %.3f px, 99th percentile %.3f px, "
       "max %.3f px\n",
       errors.size(), (poses_.size() + kViewStep - 1) / kViewStep, spread.median, p99, spread.max);
-  EXPECT_LE(spread.median, 0.2);
-  // OpenCV 4.6's own refinement of ChArUco corners misses a few corners of a board held out near
-  // the picture's bottom-left corner, steeply tilted, by up to 1.2 px (the chessboard's, refined
-  // from a whole-board detection, stay within 0.19 px): held to that, and calibrateCamera's least
-  // squares carry them (tests/calibration_workflow_test.cpp: focal length within 0.5 %).
-  EXPECT_LE(spread.max, 1.5);
+  // OpenCV 4.6's own refinement, in the small window the markers leave it, missed a few corners of
+  // a board held out near the picture's bottom-left corner, steeply tilted, by up to 1.2 px
+  // (median 0.088, 99th percentile 0.55 px); refined again over their own squares with the
+  // markers' pixels left out (calibrate/charuco_refine.h), 0.063, 0.18 and 0.21 px: as near as a
+  // chessboard's (0.071 and 0.19 px, below).
+  EXPECT_LE(spread.median, 0.1);
+  EXPECT_LE(p99, 0.3);
+  EXPECT_LE(spread.max, 0.5);
 }
 
 TEST_F(HeldTargets, ChessboardCornersAreFoundWhereTheBoardsCornersProject) {
