@@ -28,15 +28,15 @@ cv::Point2d apply(const cv::Matx33d& h, double x, double y) {
 
 void refineCharucoCorners(const cv::Mat& grey, const cv::aruco::CharucoBoard& board,
                           BoardCorners& found) {
-  const double square = board.getSquareLength();
+  const auto square = static_cast<double>(board.getSquareLength());
   std::vector<BoardRect> markers;
   for (const std::vector<cv::Point3f>& corners : board.objPoints) {
     BoardRect rect{1e9, 1e9, -1e9, -1e9};
     for (const cv::Point3f& p : corners) {
-      rect.x0 = std::min(rect.x0, double{p.x});
-      rect.y0 = std::min(rect.y0, double{p.y});
-      rect.x1 = std::max(rect.x1, double{p.x});
-      rect.y1 = std::max(rect.y1, double{p.y});
+      rect.x0 = std::min(rect.x0, static_cast<double>(p.x));
+      rect.y0 = std::min(rect.y0, static_cast<double>(p.y));
+      rect.x1 = std::max(rect.x1, static_cast<double>(p.x));
+      rect.y1 = std::max(rect.y1, static_cast<double>(p.y));
     }
     markers.push_back(rect);
   }
@@ -46,15 +46,15 @@ void refineCharucoCorners(const cv::Mat& grey, const cv::aruco::CharucoBoard& bo
   std::vector<cv::Point2f> board_near, image_near;
   std::vector<const BoardRect*> markers_near;
   for (std::size_t i = 0; i < found.size(); ++i) {
-    const double bx = found.board_points[i].x;
-    const double by = found.board_points[i].y;
+    const auto bx = static_cast<double>(found.board_points[i].x);
+    const auto by = static_cast<double>(found.board_points[i].y);
     // The board around the corner, mapped into the picture by the corners found within one and a
     // half squares of it: near enough that the lens's distortion bends it little.
     board_near.clear();
     image_near.clear();
     for (std::size_t j = 0; j < found.size(); ++j) {
-      if (std::hypot(double{found.board_points[j].x} - bx, double{found.board_points[j].y} - by) <=
-          1.5 * square) {
+      if (std::hypot(static_cast<double>(found.board_points[j].x) - bx,
+                     static_cast<double>(found.board_points[j].y) - by) <= 1.5 * square) {
         board_near.emplace_back(found.board_points[j].x, found.board_points[j].y);
         image_near.push_back(given[j]);
       }
@@ -81,7 +81,7 @@ void refineCharucoCorners(const cv::Mat& grey, const cv::aruco::CharucoBoard& bo
       if (rect.holds(bx, by, 1.5 * square)) markers_near.push_back(&rect);
     }
 
-    const cv::Point2d start(given[i].x, given[i].y);
+    const cv::Point2d start(static_cast<double>(given[i].x), static_cast<double>(given[i].y));
     cv::Point2d corner = start;
     const int side = 2 * window + 3;
     cv::Mat patch;
@@ -103,8 +103,9 @@ void refineCharucoCorners(const cv::Mat& grey, const cv::aruco::CharucoBoard& bo
             continue;
           }
           const int x = window + 1 + dx;
-          const double gx = 0.5 * (double{row[x + 1]} - double{row[x - 1]});
-          const double gy = 0.5 * (double{below[x]} - double{above[x]});
+          const double gx =
+              0.5 * (static_cast<double>(row[x + 1]) - static_cast<double>(row[x - 1]));
+          const double gy = 0.5 * (static_cast<double>(below[x]) - static_cast<double>(above[x]));
           const double weight = std::exp(-(dx * dx + dy * dy) / double(window * window));
           a += weight * gx * gx;
           b += weight * gx * gy;
