@@ -106,7 +106,8 @@ void refineCharucoCorners(const cv::Mat& grey, const cv::aruco::CharucoBoard& bo
           const double gx =
               0.5 * (static_cast<double>(row[x + 1]) - static_cast<double>(row[x - 1]));
           const double gy = 0.5 * (static_cast<double>(below[x]) - static_cast<double>(above[x]));
-          const double weight = std::exp(-(dx * dx + dy * dy) / double(window * window));
+          const double weight =
+              std::exp(-(dx * dx + dy * dy) / static_cast<double>(window * window));
           a += weight * gx * gx;
           b += weight * gx * gy;
           c += weight * gy * gy;

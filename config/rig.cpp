@@ -305,12 +305,7 @@ std::optional<Camera> mirroredTwin(const Camera& camera) {
   }
   OpenCvParameters mirrored = opencv->parameters();
   mirrored.world_frame = WorldFrame::kLeftHanded;
-  LengthUnit units = LengthUnit::kMetre;
-  for (const LengthUnit unit : {LengthUnit::kMillimetre, LengthUnit::kCentimetre}) {
-    if (metresPerUnit(unit) == camera.metresPerUnit()) units = unit;
-  }
-  return Camera(std::make_shared<OpenCvCamera>(mirrored), units, camera.streamWidth(),
-                camera.streamHeight(), camera.region());
+  return camera.withModel(std::make_shared<OpenCvCamera>(mirrored));
 }
 
 // Whether the camera would see the map with its world frame taken as left-handed: a camera that

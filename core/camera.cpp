@@ -1,6 +1,7 @@
 #include "core/camera.h"
 
 #include <cmath>
+#include <utility>
 
 #include <Eigen/Geometry>
 
@@ -67,8 +68,12 @@ std::optional<int> Camera::pixelIndexAt(const Eigen::Vector2d& stream) const {
 Eigen::Vector3d Camera::centreMetres() const { return model_->centre() * metres_per_unit_; }
 
 Camera Camera::turned(const Eigen::Vector3d& turn) const {
+  return withModel(model_->withPose(turnedOnItsMount(model_->pose(), turn)));
+}
+
+Camera Camera::withModel(std::shared_ptr<const CameraModel> model) const {
   Camera out = *this;
-  out.model_ = model_->withPose(turnedOnItsMount(model_->pose(), turn));
+  out.model_ = std::move(model);
   return out;
 }
 

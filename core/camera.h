@@ -46,6 +46,8 @@ class Camera {
   // The same camera turned on its mount by `turn` (axis times angle in radians, camera
   // coordinates): its coordinates become turn x the old ones, about the same centre.
   Camera turned(const Eigen::Vector3d& turn) const;
+  // The same stream (size, region, units) seen through another model of the calibration frame.
+  Camera withModel(std::shared_ptr<const CameraModel> model) const;
 
  private:
   std::shared_ptr<const CameraModel> model_;
