@@ -4,8 +4,11 @@
 // robot.
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <numbers>
+#include <optional>
+#include <string>
 
 #include <opencv2/aruco.hpp>
 
@@ -256,10 +259,12 @@ class RoomLightScene final : public RoomInItsLight {
 // it and of the chairs and the robot for the scene's whole duration: people cross each other's
 // lines and hide each other, but never walk through each other. (A first version let them: on a
 // third of its person-maps two people then stood closer than a body's width, which no camera can
-// tell apart; docs/detection.md.)
+// tell apart; docs/detection.md.) Crowd `seed` draws other walks ("room-crowd-3"), so that the
+// tracker is measured over many crowds, not over the two pairs of people who happen to walk side
+// by side in one; seed 0 is "room-crowd".
 class RoomCrowdScene final : public RoomInItsLight {
  public:
-  RoomCrowdScene() {
+  explicit RoomCrowdScene(std::uint32_t seed) : seed_(seed) {
     // The chairs and the robot at every step of the scene.
     constexpr double kStep = 0.05;
     const auto steps = static_cast<std::size_t>(kDuration / kStep);
@@ -275,7 +280,7 @@ class RoomCrowdScene final : public RoomInItsLight {
       walks_[i] = drawWalk(draw++);
     }
   }
-  std::string_view name() const override { return "room-crowd"; }
+  std::string_view name() const override { return name_; }
   using Scene::objectsAt;
   void objectsAt(double t, std::vector<SceneObject>& out) const override {
     RoomInItsLight::objectsAt(t, out);
@@ -297,9 +302,9 @@ class RoomCrowdScene final : public RoomInItsLight {
     Eigen::Vector2d at(double t) const { return pingPong(from, to, speed, t + phase_s); }
   };
   // The walk of draw number `draw`: two points of the free floor, a speed and a phase.
-  static Walk drawWalk(long draw) {
+  Walk drawWalk(long draw) const {
     const auto at = [&](std::uint32_t salt, double low, double high) {
-      return low + (high - low) * unitHash(draw, 17, salt);
+      return low + (high - low) * unitHash(draw, 17 + static_cast<long>(seed_), salt);
     };
     return {Eigen::Vector2d(at(11, 1.0, 8.0), at(12, 1.0, 5.5)),
             Eigen::Vector2d(at(13, 1.0, 8.0), at(14, 1.0, 5.5)), at(15, 0.6, 1.3),
@@ -322,6 +327,8 @@ class RoomCrowdScene final : public RoomInItsLight {
     }
     return true;
   }
+  std::uint32_t seed_;
+  std::string name_ = seed_ == 0 ? "room-crowd" : "room-crowd-" + std::to_string(seed_);
   std::array<Walk, kPeople> walks_{};
 };
 
@@ -501,6 +508,22 @@ class RoomMarkersScene final : public RoomInItsLight {
 };
 }  // namespace
 
+namespace {
+// The seed N of "room-crowd-N" (N from 1, written without leading zeros, so that one crowd has one
+// name), or none.
+std::optional<std::uint32_t> crowdSeed(std::string_view name) {
+  constexpr std::string_view kPrefix = "room-crowd-";
+  if (!name.starts_with(kPrefix)) return std::nullopt;
+  const std::string_view digits = name.substr(kPrefix.size());
+  std::uint32_t seed = 0;
+  const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), seed);
+  if (error != std::errc{} || end != digits.data() + digits.size() || digits.front() == '0') {
+    return std::nullopt;
+  }
+  return seed;
+}
+}  // namespace
+
 std::unique_ptr<Scene> makeScene(std::string_view name) {
   if (name == "room") return std::make_unique<RoomScene>();
   if (name == "room-light") return std::make_unique<RoomLightScene>();
@@ -508,14 +531,17 @@ std::unique_ptr<Scene> makeScene(std::string_view name) {
   if (name == "room-lamps") return std::make_unique<RoomLampsScene>();
   if (name == "room-knock") return std::make_unique<RoomKnockScene>();
   if (name == "room-day") return std::make_unique<RoomDayScene>();
-  if (name == "room-crowd") return std::make_unique<RoomCrowdScene>();
+  if (name == "room-crowd") return std::make_unique<RoomCrowdScene>(0);
+  if (const std::optional<std::uint32_t> seed = crowdSeed(name)) {
+    return std::make_unique<RoomCrowdScene>(*seed);
+  }
   if (name == "room-markers") return std::make_unique<RoomMarkersScene>();
   return nullptr;
 }
 
 std::vector<std::string> sceneNames() {
-  return {"room",       "room-light", "room-gains", "room-lamps",
-          "room-knock", "room-day",   "room-crowd", "room-markers"};
+  return {"room",     "room-light", "room-gains",     "room-lamps",  "room-knock",
+          "room-day", "room-crowd", "room-crowd-<N>", "room-markers"};
 }
 
 }  // namespace occmap::sim

@@ -166,7 +166,8 @@ class Scene {
 // its light steps and ramps; "room-gains": the light stepped and ramped between half and double;
 // "room-lamps": light in parts of it; "room-knock": camera c1 turned by
 // 1 degree at 1 s; "room-day": ten minutes of light, lamps, sun, shadows, a box left, a person
-// standing still and a knock; docs/lighting.md; "room-crowd": twelve people walking;
+// standing still and a knock; docs/lighting.md; "room-crowd": twelve people walking, and
+// "room-crowd-N" (N from 1) another twelve for each N;
 // "room-markers": the room empty, with ArUco markers on its floor, for calibration). Empty for an
 // unknown name.
 std::unique_ptr<Scene> makeScene(std::string_view name);
