@@ -4,9 +4,11 @@
 // robot's as wide and high as it) is in the image and not hidden by another object. A detector
 // that needs two views cannot find what fewer than two cameras see: this bounds its recall on the
 // scene, kind by kind (the 0.35 m robot, in its corner, is seen by two on 68.7 % of its maps).
-//   build/bench/crowd_visibility
+// Another crowd by its name (sim://room-crowd-N):
+//   build/bench/crowd_visibility [room-crowd-3]
 #include <cstdio>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "capture/sim/scene.h"
@@ -14,8 +16,14 @@
 #include "core/tsai_camera.h"
 
 using namespace occmap;
-int main() {
-  auto scene = sim::makeScene("room-crowd");
+int main(int argc, char** argv) {
+  const std::string name = argc > 1 ? argv[1] : "room-crowd";
+  auto scene = sim::makeScene(name);
+  if (!scene || name.rfind("room-crowd", 0) != 0) {
+    std::fprintf(stderr, "crowd_visibility: '%s' is not a crowd; give room-crowd or room-crowd-N\n",
+                 name.c_str());
+    return 2;
+  }
   std::vector<Eigen::Vector3d> eyes;
   std::vector<Camera> cams;
   for (const auto& c : scene->cameras()) {
@@ -70,9 +78,9 @@ int main() {
       return 100.0 * static_cast<double>(n) / static_cast<double>(maps);
     };
     std::printf(
-        "sim://room-crowd, 600 maps, %ld %s-maps: at least 30 %% of the silhouette seen by two "
+        "sim://%s, 600 maps, %ld %s-maps: at least 30 %% of the silhouette seen by two "
         "cameras or more %.1f %%, by one %.1f %%, by none %.1f %%\n",
-        maps, kinds[kind], share(h[2] + h[3] + h[4]), share(h[1]), share(h[0]));
+        name.c_str(), maps, kinds[kind], share(h[2] + h[3] + h[4]), share(h[1]), share(h[0]));
     for (int k = 0; k < 5; ++k) std::printf("  by %d cameras: %.1f %%\n", k, share(h[k]));
   }
 }
