@@ -79,11 +79,14 @@ TEST(Tracker, TwoPeopleCrossingWhileOneIsHiddenKeepTheirIdentities) {
   bool same_after = false;
   for (const Track& t : run.tracks[70]) same_after |= t.id == before->id && std::abs(t.y_m) < 0.3;
   EXPECT_TRUE(same_after) << "the hidden walker lost their identity";
-  // Its velocity, from positions alone.
+  // Its velocity, from positions alone. At 10 maps a second, with detections 5 cm off, a steady
+  // walker's velocity from the filter has a standard deviation of 0.088 m/s on each axis (the
+  // filter's own gain with TrackerSettings' 0.10 m noise; 0.065 m/s with the 0.15 m before): 0.25
+  // m/s is about 3 of them, and still tells a walker's speed and heading from any other.
   for (const Track& t : run.tracks[80]) {
     const double expected = std::abs(t.y_m) < 0.3 ? 1.0 : -1.0;
-    EXPECT_NEAR(t.vx_m_s, expected, 0.15);
-    EXPECT_NEAR(t.vy_m_s, 0.0, 0.15);
+    EXPECT_NEAR(t.vx_m_s, expected, 0.25);
+    EXPECT_NEAR(t.vy_m_s, 0.0, 0.25);
   }
 }
 
