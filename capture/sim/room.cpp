@@ -506,9 +506,7 @@ class RoomMarkersScene final : public RoomInItsLight {
   int cells_ = 0;
   std::vector<cv::Mat> printed_;  // per marker: its bitmap, row 0 the printed top
 };
-}  // namespace
 
-namespace {
 // The seed N of "room-crowd-N" (N from 1, written without leading zeros, so that one crowd has one
 // name), or none.
 std::optional<std::uint32_t> crowdSeed(std::string_view name) {
