@@ -43,9 +43,11 @@ double numberAfter(const std::string& text, const std::string& label) {
   return std::atof(text.c_str() + at + label.size());
 }
 
-// atan(sigma / f) of the principal point, in degrees, from `calibrate intrinsics`'s own line
-// "fx F +- S  fy F +- S  cx C +- S  cy C +- S px", the larger of the two axes.
-double principalPointTurnDeg(const std::string& out) {
+// atan(sigma / f) of the principal point, in degrees, read back from `calibrate intrinsics`'s own
+// line "fx F +- S  fy F +- S  cx C +- S  cy C +- S px", the larger of the two axes: what the
+// command printed, checked against whether it warned (calibrate/intrinsics.h's
+// principalPointTurnDeg decides that from the fit itself).
+double printedPrincipalPointTurnDeg(const std::string& out) {
   const auto sigmaAfter = [&](const std::string& label) {
     const std::size_t at = out.find(label);
     return at == std::string::npos ? std::nan("") : numberAfter(out.substr(at), "+- ");
@@ -108,7 +110,7 @@ TEST(CalibrationWorkflow, TheSimulatedRoomCalibratedWithOccmapMapsAsTheTrueCalib
     // The command warns exactly when the principal point's standard deviation alone may turn the
     // pose by more than 0.1 degrees (15 pictures of the 7 x 5 board: 0.09 degrees for c0, 0.15 to
     // 0.16 for the others).
-    const double turn_deg = principalPointTurnDeg(result.out);
+    const double turn_deg = printedPrincipalPointTurnDeg(result.out);
     ASSERT_TRUE(std::isfinite(turn_deg)) << result.out;
     EXPECT_EQ(turn_deg > 0.1,
               result.err.find("the principal point is known to") != std::string::npos)

@@ -83,6 +83,7 @@ TEST(Tracker, TwoPeopleCrossingWhileOneIsHiddenKeepTheirIdentities) {
   // walker's velocity from the filter has a standard deviation of 0.088 m/s on each axis (the
   // filter's own gain with TrackerSettings' 0.10 m noise; 0.065 m/s with the 0.15 m before): 0.25
   // m/s is about 3 of them, and still tells a walker's speed and heading from any other.
+  ASSERT_EQ(run.tracks[80].size(), 2u) << "both walkers are followed at 8 s";
   for (const Track& t : run.tracks[80]) {
     const double expected = std::abs(t.y_m) < 0.3 ? 1.0 : -1.0;
     EXPECT_NEAR(t.vx_m_s, expected, 0.25);
